@@ -1,0 +1,21 @@
+"""Test configuration: tofjax turns on float64 on import; NaN checks stay off so that the tests
+see what a user sees."""
+
+import jax
+import numpy as np
+import pytest
+
+import tofjax  # noqa: F401  (enables x64)
+
+jax.config.update("jax_numpy_rank_promotion", "raise")
+
+
+def tree_allclose(x, y, *, rtol=1e-7, atol=0.0) -> bool:
+    leaves_x, tree_x = jax.tree_util.tree_flatten(x)
+    leaves_y, tree_y = jax.tree_util.tree_flatten(y)
+    return tree_x == tree_y and all(np.allclose(a, b, rtol=rtol, atol=atol) for a, b in zip(leaves_x, leaves_y))
+
+
+@pytest.fixture(scope="session")
+def default_params():
+    return tofjax.Params()

@@ -1,0 +1,83 @@
+"""Background light (thesis §3.1.2, §4.2.4): lux normalisation, filter band, spectra."""
+
+from importlib import resources
+
+import numpy as np
+import pytest
+
+import tofjax
+from tofjax import _background as bg
+from tofjax import _constants as C
+
+CONSTS = tofjax.PhysicalConstants()
+LAMPS = ("sunlight", "halogen", "incandescent", "fluorescent")
+
+
+def _table(name):
+    text = resources.files("tofjax").joinpath("data", name).read_text()
+    rows = [r for r in text.splitlines() if r and not r.startswith("#")][1:]
+    data = np.array([[float(x) for x in r.split(",")] for r in rows])
+    return data[:, 0] * 1e-9, data[:, 1]
+
+
+@pytest.mark.parametrize("lamp", LAMPS)
+def test_linear_in_illuminance_and_zero_in_the_dark(lamp):
+    e = np.asarray(bg.background_photon_irradiance(lamp, np.array([0.0, 100.0, 300.0]), 850e-9, 0.0, CONSTS))
+    assert e[0] == 0.0 and e[1] > 0
+    assert e[2] == pytest.approx(3 * e[1], rel=1e-12)
+
+
+@pytest.mark.parametrize("lamp", LAMPS)
+def test_filter_wider_than_the_detector_band_equals_no_filter(lamp):
+    no_filter = bg.background_photon_irradiance(lamp, 500.0, 850e-9, 0.0, CONSTS)
+    wide = bg.background_photon_irradiance(lamp, 500.0, 850e-9, 1e-6, CONSTS)
+    assert float(wide) == pytest.approx(float(no_filter), rel=1e-12)
+    narrow = bg.background_photon_irradiance(lamp, 500.0, 850e-9, 20e-9, CONSTS)
+    assert float(narrow) <= float(no_filter)
+
+
+def test_narrow_filter_on_sunlight_matches_an_independent_integral():
+    """+-5 nm around 850 nm, integrated here from the raw ASTM G173 table (in W/m^2/nm) and the
+    CIE V(lambda) table with numpy, then compared with tofjax."""
+    wl, e = _table("astm_g173_global_tilt.csv")
+    vwl, v = _table("cie_1924_photopic_v.csv")
+    lux_per_unit = C.LUMINOUS_EFFICACY_LM_PER_W * np.trapezoid(np.interp(vwl, wl, e) * v, vwl)
+    scale = 1000.0 / lux_per_unit  # 1000 lx
+    x = np.linspace(845e-9, 855e-9, 2001)
+    ex = np.interp(x, wl, e)
+    photons = scale * np.trapezoid(ex * x, x) / (C.PLANCK_J_S * C.SPEED_OF_LIGHT_M_PER_S)
+    power = scale * np.trapezoid(ex, x)
+    got = bg.background_photon_irradiance("sunlight", 1000.0, 850e-9, 5e-9, CONSTS)
+    got_w = bg.background_irradiance_w_per_m2("sunlight", 1000.0, 850e-9, 5e-9, CONSTS)
+    assert float(got) == pytest.approx(photons, rel=2e-3)  # interpolation of V onto the 0.5 nm grid
+    assert float(got_w) == pytest.approx(power, rel=2e-3)
+
+
+def test_sunlight_luminous_efficacy_is_that_of_daylight():
+    """AM1.5 global sunlight carries about 100-120 lm per W of total irradiance."""
+    grid, e = bg.spectrum("sunlight")
+    _, v = bg.photopic_v()
+    efficacy = C.LUMINOUS_EFFICACY_LM_PER_W * np.trapezoid(v * e, grid) / np.trapezoid(e, grid)
+    assert 95 < efficacy < 125
+
+
+def test_incandescent_is_cie_illuminant_a_planck():
+    grid, e = bg.spectrum("incandescent")
+    # CIE A relative SPD, normalised to 100 at 560 nm: 300 nm -> 0.930483, 780 nm -> 241.675 (CIE 15:2004
+    # table). The table differs from its own defining formula by ~0.13 % at the ends, hence 2e-3.
+    rel = 100 * e / np.interp(560e-9, grid, e)
+    assert np.interp(300e-9, grid, rel) == pytest.approx(0.930483, rel=2e-3)
+    assert np.interp(780e-9, grid, rel) == pytest.approx(241.675, rel=2e-3)
+
+
+def test_nothing_beyond_the_silicon_cutoff():
+    # A filter entirely beyond 1.107 um passes no detectable light.
+    assert float(bg.background_photon_irradiance("halogen", 1e4, 1.1e-6, 0.05e-6, CONSTS)) < float(
+        bg.background_photon_irradiance("halogen", 1e4, 1.05e-6, 0.05e-6, CONSTS))
+    assert float(bg.background_photon_irradiance("halogen", 1e4, 1.2e-6 - 0.05e-6, 0.04e-6, CONSTS)) == 0.0
+
+
+def test_fluorescent_has_no_near_infrared():
+    assert float(bg.background_photon_irradiance("fluorescent", 1e4, 850e-9, 20e-9, CONSTS)) == 0.0
+    # but halogen does: a lamp of the same illuminance puts far more light into the NIR band.
+    assert float(bg.background_photon_irradiance("halogen", 1e4, 850e-9, 20e-9, CONSTS)) > 0.0

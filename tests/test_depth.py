@@ -1,0 +1,64 @@
+"""Phase, amplitude and depth statistics (thesis §2.1.1.1, §3.3.3, §5.4)."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import tofjax
+from tofjax import _depth
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 5])
+def test_estimator_recovers_phase_and_amplitude_of_a_cosine(n):
+    theta = tofjax.phase_steps(n)
+    phi = np.linspace(0, 2 * np.pi, 37, endpoint=False)
+    values = 123.0 * np.cos(phi[:, None] - theta[None, :])
+    z = _depth.demodulate(jnp.asarray(values))
+    np.testing.assert_allclose(_depth.phase_rad(z), phi, atol=1e-12)
+    np.testing.assert_allclose(_depth.amplitude(z, n), 123.0, rtol=1e-12)
+
+
+def test_four_phase_matches_thesis_eq_2_2_and_2_4():
+    q = jnp.array([300.0, -120.0, -250.0, 90.0])  # Q0, Q90, Q180, Q270
+    z = _depth.demodulate(q)
+    # Eqs 2.2/2.4 in this sign convention: phi = atan2(Q90 - Q270, Q0 - Q180), A = sqrt(...) / 2.
+    assert float(_depth.phase_rad(z)) == pytest.approx(np.mod(np.arctan2(-120 - 90, 300 + 250), 2 * np.pi))
+    assert float(_depth.amplitude(z, 4)) == pytest.approx(np.hypot(-120 - 90, 300 + 250) / 2)
+
+
+def test_circular_statistics_are_free_of_wrap_outliers():
+    rng = np.random.default_rng(0)
+    sigma = 0.05
+    dev = sigma * rng.standard_normal(5000)
+    phases = np.mod(dev, 2 * np.pi)  # around 0: half of them wrap to ~2 pi
+    mean, std, n = _depth.circular_stats(jnp.asarray(phases)[None], jnp.ones((1, 5000), bool))
+    assert int(n[0]) == 5000
+    assert float(std[0]) == pytest.approx(np.std(dev, ddof=1), rel=1e-9)
+    assert min(float(mean[0]), 2 * np.pi - float(mean[0])) == pytest.approx(abs(np.mean(dev)), abs=1e-12)
+    naive = np.std(phases, ddof=1)
+    assert naive > 50 * float(std[0])  # what Fig 5.7(a) suffers from
+
+
+def test_statistics_use_valid_frames_only_and_flag_empty_rows():
+    x = jnp.array([[1.0, 2.0, 100.0, 3.0], [1.0, 2.0, 3.0, 4.0]])
+    valid = jnp.array([[True, True, False, True], [True, False, False, False]])
+    mean, std = _depth.masked_mean_std(x, valid)
+    assert float(mean[0]) == pytest.approx(2.0) and float(std[0]) == pytest.approx(1.0)
+    assert np.isnan(mean[1]) and np.isnan(std[1])  # fewer than two valid frames: NaN, never 0
+
+
+def test_unwrap_along_sweep_steps_over_invalid_samples():
+    true = np.linspace(0.2, 9.0, 60)
+    wrapped = np.mod(true, 2 * np.pi)
+    valid = np.ones(60, bool)
+    valid[[0, 1, 20, 21, 22, 40]] = False
+    out = np.asarray(_depth.unwrap_along_sweep(jnp.asarray(wrapped), jnp.asarray(valid)))
+    np.testing.assert_allclose(out[valid], true[valid], atol=1e-12)
+    assert np.all(np.isnan(out[~valid]))
+
+
+def test_phase_of_zero_has_zero_gradient_not_nan():
+    g = jax.grad(lambda v: _depth.phase_rad(_depth.demodulate(v)) + _depth.amplitude(_depth.demodulate(v), 4))(
+        jnp.zeros(4))
+    assert np.all(np.isfinite(g))

@@ -1,0 +1,242 @@
+"""The whole chain against closed forms, the thesis' results (ch. 5) and the Monte Carlo /
+analytic agreement; JAX transformations of the public API."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import tofjax as tj
+from tofjax._model import _pixel_dark_slopes
+
+
+def _ideal(n, ill="pulse", ref="pulse", ill_duty=0.5, ref_duty=0.5):
+    """Noise-free, ADC-free camera with the given waveforms."""
+    return tj.Params(
+        pixel=tj.Pixel(n_phases=n, noise=False), adc=tj.ADC(enabled=False),
+        illumination_waveform=tj.IlluminationWaveform(shape=ill, duty_cycle=ill_duty),
+        reference_waveform=tj.ReferenceWaveform(shape=ref, duty_cycle=ref_duty),
+    )
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 5])
+def test_noise_free_sine_recovers_distance_to_a_micrometre(n):
+    p = _ideal(n, "sine", "sine", 1.0, 1.0)
+    d = np.linspace(0.3, 5.0, 300)
+    r = tj.predict(p, tj.Sweep("distance", d))
+    assert np.all(np.asarray(r.valid_fraction) == 1.0)  # SBI keeps 0.3 m unsaturated
+    assert np.max(np.abs(np.asarray(r.depth_unwrapped_mean_m) - d)) < 1e-6
+    wrapped = np.mod(d, float(p.unambiguity_range_m))
+    err = np.abs(np.asarray(r.depth_mean_m) - wrapped)
+    err = np.minimum(err, float(p.unambiguity_range_m) - err)
+    assert np.max(err) < 1e-6
+
+
+@pytest.mark.parametrize("n, oscillations, lo_cm, hi_cm", [(4, 4, 1.5, 3.0), (2, 4, 1.5, 3.0), (3, 6, 0.2, 1.0),
+                                                           (5, 10, 0.05, 0.3)])
+def test_rectangular_waveforms_wiggle(n, oscillations, lo_cm, hi_cm):
+    """§5.3: ~2 cm wiggling for rectangular waveforms, its frequency set by the number of phases
+    (with the odd harmonics of a 50 % square wave: N per range for even N, 2N for odd N, and
+    a smaller error for odd N, §2.4.1.1)."""
+    p = _ideal(n)
+    du = float(p.unambiguity_range_m)
+    d = 1.0 + np.arange(256) / 256 * du
+    err = np.asarray(tj.predict(p, tj.Sweep("distance", d)).depth_unwrapped_mean_m) - d
+    assert abs(np.mean(err)) < 1e-5  # the error oscillates around zero
+    assert lo_cm < 100 * np.max(np.abs(err)) < hi_cm
+    assert np.argmax(np.abs(np.fft.rfft(err - err.mean()))) == oscillations
+
+
+def test_monte_carlo_depth_noise_agrees_with_the_analytic_path():
+    p = tj.Params()
+    sweep = tj.Sweep.linspace("distance", 0.45, 4.5, 24)
+    analytic = tj.predict(p, sweep)
+    mc = tj.simulate(p, sweep, jax.random.key(11), 4000)
+    # Noise of one phase image in LSB, from the electron budget.
+    per_volt = float(p.pixel.integration_capacitance_f / p.constants.elementary_charge_c)
+    noise_lsb = np.asarray(analytic.noise.total_e) / per_volt / float(p.adc.lsb_v) * 1.05
+    strong = np.asarray(analytic.amplitude_mean_lsb) > 20 * noise_lsb
+    assert strong.sum() >= 4
+    ratio = np.asarray(mc.depth_std_m)[strong] / np.asarray(analytic.depth_std_m)[strong]
+    np.testing.assert_allclose(ratio, 1.0, atol=0.05)
+    amp_ratio = np.asarray(mc.amplitude_mean_lsb)[strong] / np.asarray(analytic.amplitude_mean_lsb)[strong]
+    np.testing.assert_allclose(amp_ratio, 1.0, atol=0.01)
+    np.testing.assert_allclose(mc.depth_unwrapped_mean_m, analytic.depth_unwrapped_mean_m, atol=3e-3)
+
+
+def test_verification_magnitudes_of_section_5_5():
+    """§5.5.1/5.5.3: amplitude ~180 LSB at 1 m and 2 ms; relative depth noise ~0.5 % at 1 m,
+    rising with distance (with the ripple of a non-sinusoidal correlation, Figs 5.8, 5.10a)."""
+    r = tj.predict(tj.Params(), tj.Sweep.linspace("distance", 0.45, 4.5, 82))
+    d = np.asarray(r.distance_m)
+    i = int(np.argmin(np.abs(d - 1.0)))
+    assert 120 < float(r.amplitude_mean_lsb[i]) < 260
+    rel = np.asarray(r.depth_std_m) / d
+    assert 0.003 < rel[i] < 0.01
+    assert np.polyfit(d, rel, 1)[0] > 0
+    assert rel[-1] > 2 * rel[i]
+    ripple_free = tj.predict(tj.Params(illumination_waveform=tj.IlluminationWaveform(shape="sine", duty_cycle=1.0),
+                                       reference_waveform=tj.ReferenceWaveform(shape="sine", duty_cycle=1.0)),
+                             tj.Sweep.linspace("distance", 0.45, 4.5, 82))
+    assert np.all(np.diff(np.asarray(ripple_free.depth_std_m) / d) > 0)
+    t = tj.predict(tj.Params(), tj.Sweep.linspace("integration_time", 0.5e-3, 4e-3, 8))
+    amp = np.asarray(t.amplitude_mean_lsb)
+    # linear in the integration time (the ADC's INL bends it by ~1e-6)
+    np.testing.assert_allclose(amp / np.asarray(t.integration_time_s), amp[0] / 0.5e-3, rtol=1e-5)
+
+
+@pytest.mark.parametrize("background", ["sunlight", "halogen"])
+def test_sbi_keeps_the_pixel_unsaturated_far_beyond_saturation_without_it(background):
+    lux = np.geomspace(1.0, 1e5, 200)
+    sweep = tj.Sweep("illuminance", lux)
+    with_sbi = tj.predict(tj.Params(scene=tj.Scene(background=background)), sweep)
+    without = tj.predict(tj.Params(scene=tj.Scene(background=background), pixel=tj.Pixel(sbi=False)), sweep)
+    sat_without = lux[np.asarray(without.pixel_saturated_fraction) > 0][0]
+    engages = lux[np.asarray(with_sbi.sbi_active_fraction) > 0][0]
+    assert 30 < sat_without < 3000  # a few hundred lux (thesis §5.5.2: SBI starts at 230 lx)
+    assert engages == pytest.approx(sat_without, rel=0.05)  # SBI takes over where saturation would set in
+    assert np.all(np.asarray(with_sbi.valid_fraction) == 1.0)  # 400x beyond, still unsaturated
+    assert np.all(np.isnan(np.asarray(without.depth_std_m)[lux >= sat_without * 1.05]))
+    # Fig 5.15: beyond the engage point the taps' final voltages no longer change.
+    beyond = lux > 2 * engages
+    for v in (with_sbi.tap_a_v, with_sbi.tap_b_v):
+        v = np.asarray(v)[beyond]
+        np.testing.assert_allclose(v - v[0], 0.0, atol=1e-9)
+
+
+def test_saturated_samples_are_flagged_and_never_zero():
+    p = tj.Params(pixel=tj.Pixel(sbi=False))
+    sweep = tj.Sweep("distance", np.array([0.2, 0.3, 1.0]))
+    for r in (tj.predict(p, sweep), tj.simulate(p, sweep, jax.random.key(0), 50)):
+        vf = np.asarray(r.valid_fraction)
+        assert vf[0] == 0.0 and vf[-1] == 1.0
+        assert np.asarray(r.pixel_saturated_fraction)[0] == 1.0
+        for field in (r.depth_mean_m, r.depth_std_m, r.amplitude_mean_lsb):
+            assert np.isnan(np.asarray(field)[0]) and np.isfinite(np.asarray(field)[-1])
+    mc = tj.simulate(p, sweep, jax.random.key(0), 50)
+    assert not np.any(np.asarray(mc.valid)[0])
+
+
+def test_noise_switch_and_determinism():
+    sweep = tj.Sweep.linspace("distance", 0.5, 3.0, 5)
+    quiet = tj.simulate(tj.Params(pixel=tj.Pixel(noise=False)), sweep, jax.random.key(0), 20)
+    assert np.all(np.asarray(quiet.depth_std_m) == 0.0)
+    assert np.all(np.asarray(tj.predict(tj.Params(pixel=tj.Pixel(noise=False)), sweep).depth_std_m) == 0.0)
+    a = tj.simulate(tj.Params(), sweep, jax.random.key(1), 30)
+    b = tj.simulate(tj.Params(), sweep, jax.random.key(1), 30)
+    c = tj.simulate(tj.Params(), sweep, jax.random.key(2), 30)
+    np.testing.assert_array_equal(a.codes, b.codes)
+    assert not np.array_equal(np.asarray(a.codes), np.asarray(c.codes))
+
+
+def test_fixed_pattern_dark_slopes_follow_the_population():
+    p = tj.Params()
+    slopes = jax.vmap(lambda k: _pixel_dark_slopes(p, k))(jax.random.split(jax.random.key(0), 20000))
+    slopes = np.asarray(slopes).ravel()
+    assert np.all(slopes > 0)
+    assert np.mean(slopes) == pytest.approx(1.4, rel=0.02)
+    assert np.std(slopes) == pytest.approx(1.0, rel=0.03)
+
+
+def _fd_check(f, x0, rtol=1e-4):
+    g = float(jax.grad(f)(x0))
+    h = 1e-6 * abs(x0)
+    fd = (float(f(x0 + h)) - float(f(x0 - h))) / (2 * h)
+    scale = abs(float(f(x0))) / abs(x0)  # a derivative this small is "zero" at this precision
+    assert np.isfinite(g)
+    assert abs(g - fd) <= rtol * max(abs(fd), 1e-6 * scale), (g, fd)
+
+
+PARAMS_TO_DIFF = {
+    "contrast": lambda p: p.pixel.demodulation_contrast,
+    "responsivity": lambda p: p.pixel.photo_responsivity_a_per_w,
+    "dark_slope": lambda p: p.pixel.dark_slope_mean_v_per_s,
+    "k_lens": lambda p: p.camera.k_lens,
+}
+
+
+@pytest.mark.parametrize("case", ["nominal", "sbi_engaged", "tap_saturated"])
+@pytest.mark.parametrize("name", list(PARAMS_TO_DIFF))
+def test_smooth_gradients_match_finite_differences(case, name):
+    if case == "nominal":
+        base, d = tj.Params(), 1.0
+    elif case == "sbi_engaged":
+        base, d = tj.Params(), 0.33  # the high tap sits at the SBI threshold
+    else:
+        base, d = tj.Params(pixel=tj.Pixel(sbi=False)), 0.35  # a tap saturates (hard mode: invalid)
+    sweep = tj.Sweep("distance", np.array([d]))
+    smooth = tj.Smooth()
+    where = PARAMS_TO_DIFF[name]
+    hard = tj.predict(base, sweep)
+    if case == "tap_saturated":
+        assert float(hard.pixel_saturated_fraction[0]) == 1.0
+    if case == "sbi_engaged":
+        assert float(hard.sbi_active_fraction[0]) == 1.0 and float(hard.valid_fraction[0]) == 1.0
+
+    for field in ("depth_std_m", "amplitude_mean_lsb"):
+        def f(x, field=field):
+            r = tj.predict(eqx.tree_at(where, base, x), sweep, smooth=smooth)
+            return getattr(r, field)[0]
+
+        _fd_check(jax.jit(f), float(where(base)))
+
+
+def test_public_api_under_jit_vmap_grad():
+    p = tj.Params()
+    sweep = tj.Sweep.linspace("distance", 0.5, 4.0, 6)
+    eager = tj.predict(p, sweep).depth_std_m
+    jitted = jax.jit(lambda q: tj.predict(q, sweep).depth_std_m)(p)
+    np.testing.assert_allclose(jitted, eager, rtol=1e-12)
+
+    contrasts = jnp.array([0.3, 0.42, 0.6])
+    f = lambda c: tj.predict(eqx.tree_at(lambda q: q.pixel.demodulation_contrast, p, c), sweep).depth_std_m  # noqa
+    batched = jax.vmap(f)(contrasts)
+    np.testing.assert_allclose(batched, np.stack([f(c) for c in contrasts]), rtol=1e-12)
+    # Depth noise scales as 1/contrast where shot noise of the unchanged electrons dominates.
+    assert np.all(np.diff(np.asarray(batched), axis=0) < 0)
+
+    def mc_loss(c):
+        q = eqx.tree_at(lambda q: q.pixel.demodulation_contrast, p, c)
+        return jnp.sum(tj.simulate(q, sweep, jax.random.key(0), 64, smooth=tj.Smooth()).depth_std_m)
+
+    g = jax.grad(mc_loss)(0.42)
+    assert np.isfinite(g) and g < 0
+
+    sine = tj.Params(illumination_waveform=tj.IlluminationWaveform(shape="sine", duty_cycle=1.0),
+                     reference_waveform=tj.ReferenceWaveform(shape="sine", duty_cycle=1.0))
+
+    def distance_grad(d):
+        return tj.predict(sine, tj.Sweep("distance", d[None])).depth_std_m[0]
+
+    assert float(jax.grad(distance_grad)(jnp.asarray(2.0))) > 0  # noise grows with distance
+
+
+def test_new_parameter_values_do_not_recompile():
+    sweep = tj.Sweep.linspace("distance", 0.5, 4.0, 4)
+
+    @eqx.filter_jit
+    @eqx.debug.assert_max_traces(max_traces=1)
+    def depth_noise(p):
+        return tj.predict(p, sweep).depth_std_m
+
+    depth_noise(tj.Params())
+    # Replacement leaves must keep the dtype (a weakly typed jnp.asarray(0.3) would retrace).
+    depth_noise(eqx.tree_at(lambda q: q.pixel.demodulation_contrast, tj.Params(), jnp.asarray(0.3, dtype=float)))
+    depth_noise(tj.Params(scene=tj.Scene(illuminance_lx=500.0)))
+
+
+def test_bad_arguments_raise_clear_errors():
+    sweep = tj.Sweep.linspace("distance", 0.5, 4.0, 4)
+    with pytest.raises(ValueError, match="iterations = 0 is out of range"):
+        tj.simulate(tj.Params(), sweep, jax.random.key(0), 0)
+    with pytest.raises(TypeError, match="params must be a tofjax.Params"):
+        tj.predict({"pixel": 1}, sweep)
+    with pytest.raises(ValueError, match=r"scene.distance_m = .* is out of range: allowed 0 < value <= 1000"):
+        tj.Sweep("distance", [-1.0, 2.0])
+    with pytest.raises(ValueError, match="did you mean"):
+        tj.Sweep("distanse", [1.0])
+    with pytest.raises(ValueError, match="must be less than"):
+        tj.Sweep.linspace("distance", 4.0, 1.0, 5)
+    with pytest.raises(ValueError, match="Smooth.adc_temperature_lsb = 0.0"):
+        tj.Smooth(adc_temperature_lsb=0.0)

@@ -1,0 +1,132 @@
+"""Background light: illuminance in lux to in-band photon irradiance (thesis §3.1.2, §4.2.4).
+
+The lamp spectrum E(lambda) (known up to a scale) is normalised so that its luminous value
+K_m int V(lambda) E(lambda) dlambda equals the illuminance E_v on the target (Eqs 3.3-3.4). The
+part that reaches the detector is integrated over the rectangular band-pass filter
+[lambda - w, lambda + w] (w = 0: no filter), and only up to the silicon cut-off, because photons
+beyond the band gap generate no electrons. Each wavelength is converted to photons with its own
+photon energy h c / lambda (the thesis uses the illumination wavelength for all of them; the two
+agree for a narrow filter). See docs/model.md, "Background light".
+
+Spectra (files in ``tofjax/data`` with their provenance):
+- sunlight: ASTM G173-03 global tilt (thesis Table 4.3 footnote);
+- halogen: Planck radiator at 3200 K (tungsten-halogen lamps run at 3000-3200 K; 3200 K is the
+  photographic/studio standard);
+- incandescent: Planck radiator at 2856 K (CIE standard illuminant A);
+- fluorescent: CIE FL2 (cool white), tabulated 380-780 nm.
+"""
+
+from __future__ import annotations
+
+import functools
+from importlib import resources
+
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from . import _constants as const
+from ._params import PhysicalConstants
+
+HALOGEN_TEMPERATURE_K = 3200.0
+INCANDESCENT_TEMPERATURE_K = 2856.0
+#: Second radiation constant c2 = h c / k (CIE 15:2004 defines illuminant A with c2 = 1.4388e-2 m K).
+_C2_M_K = const.PLANCK_J_S * const.SPEED_OF_LIGHT_M_PER_S / const.BOLTZMANN_J_PER_K
+#: Common wavelength grid, m: 280-4000 nm in 0.5 nm steps (the ASTM G173 span).
+_GRID_M = np.arange(280.0, 4000.0 + 0.25, 0.5) * 1e-9
+
+
+def _read_table(name: str) -> tuple[np.ndarray, np.ndarray]:
+    text = resources.files("tofjax").joinpath("data", name).read_text(encoding="utf-8")
+    rows = [line for line in text.splitlines() if line and not line.startswith("#")][1:]
+    data = np.array([[float(x) for x in row.split(",")] for row in rows])
+    return data[:, 0] * 1e-9, data[:, 1]
+
+
+def _planck(wavelength_m: np.ndarray, temperature_k: float) -> np.ndarray:
+    """Relative spectral radiance of a black body (scale irrelevant: normalised to lux later)."""
+    x = wavelength_m * 1e6
+    return x**-5.0 / np.expm1(_C2_M_K / (wavelength_m * temperature_k))
+
+
+def _on_grid(wavelength_m: np.ndarray, values: np.ndarray) -> np.ndarray:
+    return np.interp(_GRID_M, wavelength_m, values, left=0.0, right=0.0)
+
+
+@functools.lru_cache(maxsize=None)
+def spectrum(background: str) -> tuple[np.ndarray, np.ndarray]:
+    """The relative spectral irradiance of a background lamp on the common grid (m, arbitrary)."""
+    if background == "sunlight":
+        return _GRID_M, _on_grid(*_read_table("astm_g173_global_tilt.csv"))
+    if background == "fluorescent":
+        return _GRID_M, _on_grid(*_read_table("cie_fl2.csv"))
+    if background == "halogen":
+        return _GRID_M, _planck(_GRID_M, HALOGEN_TEMPERATURE_K)
+    if background == "incandescent":
+        return _GRID_M, _planck(_GRID_M, INCANDESCENT_TEMPERATURE_K)
+    raise ValueError(f"scene.background = {background!r} is not allowed: expected one of "
+                     '"sunlight", "halogen", "incandescent", "fluorescent"')
+
+
+@functools.lru_cache(maxsize=None)
+def photopic_v() -> tuple[np.ndarray, np.ndarray]:
+    """CIE 1924 photopic V(lambda) on the common grid."""
+    return _GRID_M, _on_grid(*_read_table("cie_1924_photopic_v.csv"))
+
+
+def _cumtrapz(y: np.ndarray, x: np.ndarray) -> np.ndarray:
+    return np.concatenate([[0.0], np.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(x))])
+
+
+@functools.lru_cache(maxsize=None)
+def _tables(background: str) -> tuple[float, np.ndarray, np.ndarray]:
+    """(int V E dlambda, cumulative int E lambda dlambda, cumulative int E dlambda), the last two
+    cut at the silicon band gap, for the normalised-later spectrum E."""
+    grid, e = spectrum(background)
+    _, v = photopic_v()
+    luminous = float(np.trapezoid(v * e, grid))
+    detected = np.where(grid <= const.SILICON_CUTOFF_M, e, 0.0)
+    return luminous, _cumtrapz(detected * grid, grid), _cumtrapz(detected, grid)
+
+
+def _band(wavelength_m: Array, filter_half_width_m: Array) -> tuple[Array, Array]:
+    has_filter = filter_half_width_m > 0.0
+    lo = jnp.where(has_filter, wavelength_m - filter_half_width_m, _GRID_M[0])
+    hi = jnp.where(has_filter, wavelength_m + filter_half_width_m, _GRID_M[-1])
+    return lo, hi
+
+
+def background_photon_irradiance(
+    background: str,
+    illuminance_lx: Float[Array, "*b"],
+    wavelength_m: Float[Array, ""],
+    filter_half_width_m: Float[Array, ""],
+    constants: PhysicalConstants,
+) -> Float[Array, "*b"]:
+    """Detectable in-band background photon irradiance on the target, photons / (s m^2).
+
+    **Arguments:**
+    - ``background``: lamp name (sunlight, halogen, incandescent, fluorescent).
+    - ``illuminance_lx``: illuminance on the target, lx.
+    - ``wavelength_m``, ``filter_half_width_m``: the band-pass filter (half width 0 = no filter).
+    - ``constants``: physical constants (K_m, h, c).
+    """
+    luminous, cum_photon, _ = _tables(background)
+    lo, hi = _band(wavelength_m, filter_half_width_m)
+    in_band = jnp.interp(hi, _GRID_M, cum_photon) - jnp.interp(lo, _GRID_M, cum_photon)
+    scale = illuminance_lx / (constants.luminous_efficacy_lm_per_w * luminous)  # Eq 3.4
+    return scale * in_band / (constants.planck_j_s * constants.speed_of_light_m_per_s)
+
+
+def background_irradiance_w_per_m2(
+    background: str,
+    illuminance_lx: Float[Array, "*b"],
+    wavelength_m: Float[Array, ""],
+    filter_half_width_m: Float[Array, ""],
+    constants: PhysicalConstants,
+) -> Float[Array, "*b"]:
+    """Detectable in-band background irradiance on the target, W/m^2 (E_eBackground, Eq 3.4)."""
+    luminous, _, cum_power = _tables(background)
+    lo, hi = _band(wavelength_m, filter_half_width_m)
+    in_band = jnp.interp(hi, _GRID_M, cum_power) - jnp.interp(lo, _GRID_M, cum_power)
+    return illuminance_lx / (constants.luminous_efficacy_lm_per_w * luminous) * in_band

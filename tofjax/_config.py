@@ -1,0 +1,152 @@
+"""The user-facing TOML configuration: load, validate, build parameters, write.
+
+A file names only what it changes; everything else keeps its default. Every value is checked
+against its physical range here, before anything is traced, and a problem becomes a
+:class:`tofjax.ConfigError` naming the key, the value and the allowed range (or the file, line
+and column for malformed TOML).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from ._params import SECTION_CLASSES, Params
+from ._schema import SECTIONS, ConfigError, defaults, keys_of, validate
+from ._sweep import Sweep
+
+#: Sweep name -> (scene key of the start, scene key of the end).
+SWEEP_RANGE_KEYS = {
+    "distance": ("distance_from_m", "distance_to_m"),
+    "illuminance": ("illuminance_from_lx", "illuminance_to_lx"),
+    "integration_time": ("integration_time_from_s", "integration_time_to_s"),
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Config:
+    """A validated configuration: the nested ``values`` plus helpers to build the model inputs.
+
+    Build with :func:`load_config` or :func:`config_from_dict`; ``Config()`` is the default.
+    """
+
+    values: Mapping[str, Mapping[str, Any]] = dataclasses.field(default_factory=defaults)
+
+    @property
+    def params(self) -> Params:
+        """The parameter pytree (:class:`tofjax.Params`)."""
+        parts = {}
+        for section, cls in SECTION_CLASSES.items():
+            names = {f.name for f in dataclasses.fields(cls)}
+            parts[section] = cls(**{k: v for k, v in self.values[section].items() if k in names})
+        return Params(**parts)
+
+    @property
+    def iterations(self) -> int:
+        """Monte Carlo frames per sample (``pixel.iterations``)."""
+        return self.values["pixel"]["iterations"]
+
+    def sweep(self, variable: str, start: float | None = None, stop: float | None = None,
+              samples: int | None = None) -> Sweep:
+        """The sweep over ``variable`` with the configured range and samples unless overridden."""
+        if variable not in SWEEP_RANGE_KEYS:
+            return Sweep(variable, [1.0])  # raises the standard error naming the allowed sweeps
+        lo_key, hi_key = SWEEP_RANGE_KEYS[variable]
+        scene = self.values["scene"]
+        start = scene[lo_key] if start is None else start
+        stop = scene[hi_key] if stop is None else stop
+        samples = scene["samples"] if samples is None else samples
+        return Sweep.linspace(variable, start, stop, samples)
+
+    def replace(self, dotted: str, value: Any) -> Config:
+        """A copy with one key changed (validated), e.g. ``replace("pixel.sbi", False)``."""
+        section, _, name = dotted.partition(".")
+        return config_from_dict({**{s: dict(t) for s, t in self.values.items()},
+                                 section: {**self.values.get(section, {}), name: value}})
+
+    def to_toml(self) -> str:
+        """The full configuration as TOML, with a comment on every key."""
+        return render_toml(self.values)
+
+
+def config_from_dict(raw: Mapping[str, Any], where: str = "") -> Config:
+    """Validate a (partial) nested mapping and merge it over the defaults."""
+    return Config(validate(raw, where))
+
+
+def _toml_position(err: tomllib.TOMLDecodeError) -> str:
+    line, col = getattr(err, "lineno", None), getattr(err, "colno", None)
+    if line is None:
+        match = re.search(r"line (\d+), column (\d+)", str(err))
+        if match:
+            line, col = int(match.group(1)), int(match.group(2))
+    return f"line {line}, column {col}" if line is not None else "unknown position"
+
+
+def load_config(path: str | Path) -> Config:
+    """Read a TOML configuration file; raises :class:`tofjax.ConfigError` with the file name."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: configuration file not found") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise ConfigError(f"{path}: cannot read configuration: {err}") from None
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        msg = getattr(err, "msg", str(err))
+        raise ConfigError(f"{path}: {_toml_position(err)}: malformed TOML: {msg}") from None
+    return config_from_dict(raw, where=str(path))
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, float):
+        text = repr(value)
+        return text if any(c in text for c in ".en") else text + ".0"
+    return repr(value)
+
+
+_SECTION_TITLES = {
+    "illumination": "Illumination unit (thesis Table 4.2)",
+    "scene": "Scene, background light, nominal operating point and sweep ranges (Table 4.3)",
+    "camera": "Camera and lens (Table 4.4)",
+    "pixel": "PMD pixel (Table 4.5)",
+    "illumination_waveform": "Emitted waveform (Table 4.6, Fig 4.2)",
+    "reference_waveform": "Pixel reference (demodulation) waveform (Table 4.7)",
+    "adc": "Analogue-to-digital converter (Table 4.8, Fig 4.11)",
+}
+
+
+def render_toml(values: Mapping[str, Mapping[str, Any]]) -> str:
+    """Write a full configuration as TOML with a ``# meaning [unit]; allowed: range`` comment per key.
+
+    tomllib reads TOML but does not write it, and no writer keeps comments on a key-by-key basis
+    for a flat schema like this one; the values are plain scalars and pairs, so the writer is
+    a few lines.
+    """
+    lines = ["# tofjax camera configuration. SI units throughout; a file may name only what it changes.", ""]
+    for section in SECTIONS:
+        lines.append(f"# {_SECTION_TITLES[section]}")
+        lines.append(f"[{section}]")
+        for key in keys_of(section):
+            lines.append(f"# {key.doc} [{key.unit}]; allowed: {key.range_text()}")
+            lines.append(f"{key.name} = {_toml_value(values[section][key.name])}")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def default_config_text() -> str:
+    """The full default configuration file (what ``tofjax config`` prints)."""
+    return render_toml(defaults())
+

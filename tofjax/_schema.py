@@ -1,0 +1,362 @@
+"""The configuration schema: one table of every user-facing key.
+
+Each :class:`Key` carries its default, unit, meaning and physically allowed range. The TOML loader,
+the commented default file (``tofjax config``), the parameter modules' ``__check_init__`` and the
+calibration bounds all read this table, so a range is written down exactly once.
+
+Defaults follow the thesis GUI (Figs 4.8-4.11) and the verification camera of §5.5.1; values the
+thesis does not state (wavelength, FoVs, f-number, lens loss, fill factor, sensor area) are the
+choices documented in docs/model.md.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import jax
+
+from ._constants import ELEMENTARY_CHARGE_C, PLANCK_J_S, SPEED_OF_LIGHT_M_PER_S
+
+WAVEFORM_SHAPES = ("sine", "pulse", "fourier", "gauss_extended", "sawtooth", "triangle")
+BACKGROUNDS = ("sunlight", "halogen", "incandescent", "fluorescent")
+SWEEPS = ("distance", "illuminance", "integration_time")
+
+
+class ConfigError(ValueError):
+    """An invalid configuration value, key, type or file. The message names the key (or file,
+    line and column), the offending value and what is allowed."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Key:
+    """One configuration key.
+
+    ``kind`` is one of ``float``, ``int``, ``bool``, ``choice``, ``pair`` (two floats, x/y) and
+    ``angle`` (a float, or two floats [horizontal, vertical]). Ranges apply to every element;
+    ``lo_open``/``hi_open`` make a bound exclusive.
+    """
+
+    section: str
+    name: str
+    kind: str
+    default: Any
+    unit: str
+    doc: str
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+    choices: tuple[str, ...] = ()
+
+    @property
+    def dotted(self) -> str:
+        return f"{self.section}.{self.name}"
+
+    def range_text(self) -> str:
+        """Human-readable allowed range, e.g. ``0 < value <= 1``."""
+        if self.kind == "bool":
+            return "true or false"
+        if self.kind == "choice":
+            return "one of " + ", ".join(f'"{c}"' for c in self.choices)
+        parts = []
+        if self.lo is not None:
+            parts.append(f"{self.lo:g} {'<' if self.lo_open else '<='} ")
+        parts.append("value")
+        if self.hi is not None:
+            parts.append(f" {'<' if self.hi_open else '<='} {self.hi:g}")
+        text = "".join(parts)
+        if self.kind == "int":
+            text = "integer " + text
+        elif self.kind == "pair":
+            text = "[x, y] with each " + text
+        elif self.kind == "angle":
+            text = "a number (diagonal, circular) or [horizontal, vertical], each " + text
+        return text
+
+
+def _k(section, name, kind, default, unit, doc, lo=None, hi=None, lo_open=False, hi_open=False, choices=()):
+    return Key(section, name, kind, default, unit, doc, lo, hi, lo_open, hi_open, tuple(choices))
+
+
+_PITCH_M = 17.5e-6
+KEYS: tuple[Key, ...] = (
+    # --- [illumination]  thesis Table 4.2
+    _k("illumination", "peak_power_w", "float", 1.2, "W",
+       "peak optical output power of the illumination (radiant flux at waveform value 1)", 0.0, 1e3, lo_open=True),
+    _k("illumination", "wavelength_m", "float", 850e-9, "m",
+       "illumination wavelength; centre of the optical band-pass filter", 300e-9, 1.1e-6),
+    _k("illumination", "fov_deg", "angle", 75.0, "deg",
+       "illumination field of view: a number = diagonal FoV onto a circular spot, [h, v] = rectangular spot",
+       0.0, 180.0, lo_open=True, hi_open=True),
+    # --- [scene]  thesis Table 4.3
+    _k("scene", "reflectivity", "float", 0.9, "1", "Lambertian reflectivity of the target", 0.0, 1.0),
+    _k("scene", "background", "choice", "sunlight", "-",
+       "background light spectrum", choices=BACKGROUNDS),
+    _k("scene", "filter_half_width_m", "float", 0.0, "m",
+       "half width of the rectangular optical band-pass filter around wavelength_m; 0 = no filter", 0.0, 1e-6),
+    _k("scene", "distance_m", "float", 1.0, "m", "nominal target distance", 0.0, 1e3, lo_open=True),
+    _k("scene", "illuminance_lx", "float", 20.0, "lx", "nominal background illuminance on the target", 0.0, 2e5),
+    _k("scene", "integration_time_s", "float", 2e-3, "s", "nominal integration (exposure) time per phase",
+       0.0, 1.0, lo_open=True),
+    _k("scene", "distance_from_m", "float", 0.45, "m", "distance sweep start", 0.0, 1e3, lo_open=True),
+    _k("scene", "distance_to_m", "float", 4.5, "m", "distance sweep end", 0.0, 1e3, lo_open=True),
+    _k("scene", "illuminance_from_lx", "float", 0.0, "lx", "illuminance sweep start", 0.0, 2e5),
+    _k("scene", "illuminance_to_lx", "float", 5000.0, "lx", "illuminance sweep end", 0.0, 2e5),
+    _k("scene", "integration_time_from_s", "float", 0.2e-3, "s", "integration time sweep start",
+       0.0, 1.0, lo_open=True),
+    _k("scene", "integration_time_to_s", "float", 5e-3, "s", "integration time sweep end", 0.0, 1.0, lo_open=True),
+    _k("scene", "samples", "int", 1000, "1", "number of sweep samples", 1, 1_000_000),
+    # --- [camera]  thesis Table 4.4
+    _k("camera", "k_lens", "float", 0.9, "1", "transmission of lens and filter (1 = lossless)", 0.0, 1.0, lo_open=True),
+    _k("camera", "f_number", "float", 1.4, "1", "lens f-number (focal length / aperture diameter)", 0.5, 64.0),
+    _k("camera", "fov_deg", "angle", 75.0, "deg",
+       "camera field of view: a number = diagonal, [h, v] = horizontal/vertical (the lens uses the diagonal)",
+       0.0, 180.0, lo_open=True, hi_open=True),
+    _k("camera", "pixel_pitch_m", "pair", [_PITCH_M, _PITCH_M], "m", "pixel pitch [x, y]", 0.0, 1e-3, lo_open=True),
+    _k("camera", "optical_area_m", "pair", [224 * _PITCH_M, 172 * _PITCH_M], "m",
+       "dimensions [x, y] of the optically sensitive sensor area (224 x 172 pixels by default)",
+       0.0, 0.1, lo_open=True),
+    _k("camera", "fill_factor", "float", 1.0, "1", "light-sensitive fraction of the pixel area (with microlenses)",
+       0.0, 1.0, lo_open=True),
+    # --- [pixel]  thesis Table 4.5
+    _k("pixel", "photo_responsivity_a_per_w", "float", 0.23, "A/W",
+       "spectral responsivity at wavelength_m (quantum efficiency must stay <= 1)", 0.0, 1.0, lo_open=True),
+    _k("pixel", "demodulation_contrast", "float", 0.42, "1",
+       "fraction of photo-electrons sorted by phase; the rest go equally to both taps", 0.0, 1.0, lo_open=True),
+    _k("pixel", "c_diode_f", "float", 7e-15, "F", "photodiode capacitance of one tap", 0.0, 1e-12, lo_open=True),
+    _k("pixel", "c_sample_and_hold_f", "float", 7e-15, "F", "sample-and-hold capacitance of one tap",
+       0.0, 1e-12, lo_open=True),
+    _k("pixel", "n_phases", "int", 4, "1", "number of phase images (2 = 0/90 deg with the taps' complements)", 2, 5),
+    _k("pixel", "v_reset_v", "float", 2.9, "V", "reset voltage of each tap", 0.0, 10.0, lo_open=True),
+    _k("pixel", "v_saturated_v", "float", 2.0, "V", "saturation voltage = SBI threshold (must be < v_reset_v)",
+       0.0, 10.0),
+    _k("pixel", "temperature_c", "float", 25.0, "degC", "ambient temperature (kTC noise)", -273.15, 200.0,
+       lo_open=True),
+    _k("pixel", "dark_slope_mean_v_per_s", "float", 1.4, "V/s", "mean single-ended dark slope of a tap (1.4 mV/ms)",
+       0.0, 100.0),
+    _k("pixel", "dark_slope_sigma_v_per_s", "float", 1.0, "V/s",
+       "pixel-to-pixel (fixed-pattern) sigma of the single-ended dark slope (1 mV/ms)", 0.0, 100.0),
+    _k("pixel", "sbi", "bool", True, "-", "suppression of background illumination circuit enabled"),
+    _k("pixel", "noise", "bool", True, "-", "temporal noise enabled"),
+    _k("pixel", "iterations", "int", 2000, "1", "Monte Carlo repetitions (frames) per sweep sample", 1, 10_000_000),
+    # --- [illumination_waveform]  thesis Table 4.6
+    _k("illumination_waveform", "shape", "choice", "gauss_extended", "-", "emitted waveform", choices=WAVEFORM_SHAPES),
+    _k("illumination_waveform", "duty_cycle", "float", 0.25, "1", "on-time fraction of the period",
+       0.0, 1.0, lo_open=True),
+    _k("illumination_waveform", "gauss_order", "int", 15, "1", "super-Gaussian order of gauss_extended", 1, 100),
+    _k("illumination_waveform", "fourier_order", "int", 5, "1", "harmonics in the fourier shape", 1, 200),
+    _k("illumination_waveform", "modulation_frequency_hz", "float", 80.32e6, "Hz", "modulation frequency",
+       0.0, 5e9, lo_open=True),
+    # --- [reference_waveform]  thesis Table 4.7
+    _k("reference_waveform", "shape", "choice", "gauss_extended", "-", "pixel demodulation (reference) waveform",
+       choices=WAVEFORM_SHAPES),
+    _k("reference_waveform", "duty_cycle", "float", 0.5, "1", "on-time fraction of the period",
+       0.0, 1.0, lo_open=True),
+    _k("reference_waveform", "gauss_order", "int", 15, "1", "super-Gaussian order of gauss_extended", 1, 100),
+    _k("reference_waveform", "fourier_order", "int", 5, "1", "harmonics in the fourier shape", 1, 200),
+    # --- [adc]  thesis Table 4.8 and GUI Fig 4.11
+    _k("adc", "enabled", "bool", True, "-", "quantise with the ADC (false: ideal continuous readout in LSB)"),
+    _k("adc", "v_ref_pos_v", "float", 1.075, "V", "positive reference voltage", -10.0, 10.0),
+    _k("adc", "v_ref_neg_v", "float", 0.275, "V", "negative reference voltage (must be < v_ref_pos_v)", -10.0, 10.0),
+    _k("adc", "resolution_bits", "int", 12, "bit", "ADC resolution", 2, 24),
+    _k("adc", "offset_error_lsb", "float", 30.0, "LSB", "offset error", -1e4, 1e4),
+    _k("adc", "gain_error_percent_fsr", "float", 5.0, "% FSR", "gain error", -50.0, 50.0),
+    _k("adc", "integral_nonlinearity_lsb", "float", 10.0, "LSB", "peak integral non-linearity (bow at mid-scale)",
+       -1e4, 1e4),
+    _k("adc", "differential_nonlinearity_lsb", "float", 0.8, "LSB",
+       "peak step-width deviation (< 1: no missing codes)", 0.0, 1.0, hi_open=True),
+)
+
+SECTIONS: tuple[str, ...] = tuple(dict.fromkeys(k.section for k in KEYS))
+KEY_BY_DOTTED: dict[str, Key] = {k.dotted: k for k in KEYS}
+
+
+def keys_of(section: str) -> tuple[Key, ...]:
+    return tuple(k for k in KEYS if k.section == section)
+
+
+def suggest(name: str, options) -> str:
+    """A ``did you mean`` suffix for an unknown name, or an empty string."""
+    close = difflib.get_close_matches(name, list(options), n=1, cutoff=0.6)
+    return f' (did you mean "{close[0]}"?)' if close else ""
+
+
+def _is_tracer(x) -> bool:
+    return isinstance(x, jax.core.Tracer)
+
+
+def _fmt(value) -> str:
+    try:
+        import numpy as np
+
+        arr = np.asarray(value)
+        if arr.ndim == 0:
+            return f"{arr.item()!r}"
+        return repr(arr.tolist())
+    except Exception:  # pragma: no cover - repr fallback
+        return repr(value)
+
+
+def _in_range(key: Key, x: float) -> bool:
+    if isinstance(x, float) and math.isnan(x):
+        return False
+    if key.lo is not None and (x <= key.lo if key.lo_open else x < key.lo):
+        return False
+    if key.hi is not None and (x >= key.hi if key.hi_open else x > key.hi):
+        return False
+    return True
+
+
+def coerce(key: Key, value: Any, where: str = "") -> Any:
+    """Check the type and range of one value and return it in canonical Python form.
+
+    Raises :class:`ConfigError` naming the key, the value and the allowed range.
+    """
+    loc = f"{where}: " if where else ""
+    bad_type = f"{loc}{key.dotted} = {_fmt(value)} has the wrong type: expected {key.range_text()} [{key.unit}]"
+    if key.kind == "bool":
+        if not isinstance(value, bool):
+            raise ConfigError(bad_type)
+        return value
+    if key.kind == "choice":
+        if not isinstance(value, str):
+            raise ConfigError(bad_type)
+        if value not in key.choices:
+            raise ConfigError(
+                f"{loc}{key.dotted} = {value!r} is not allowed: expected {key.range_text()}"
+                + suggest(value, key.choices)
+            )
+        return value
+    if key.kind == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(bad_type)
+        elements = [value]
+    elif key.kind == "float":
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(bad_type)
+        value = float(value)
+        elements = [value]
+    else:  # pair / angle
+        if key.kind == "angle" and isinstance(value, (int, float)) and not isinstance(value, bool):
+            value = float(value)
+            elements = [value]
+        elif (
+            isinstance(value, Sequence)
+            and not isinstance(value, str)
+            and len(value) == 2
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+        ):
+            value = [float(v) for v in value]
+            elements = value
+        else:
+            raise ConfigError(bad_type)
+    for x in elements:
+        if not _in_range(key, x):
+            raise ConfigError(
+                f"{loc}{key.dotted} = {_fmt(value)} is out of range: allowed {key.range_text()} [{key.unit}]"
+            )
+    return value
+
+
+def check_array(section: str, name: str, value) -> None:
+    """Range-check a (possibly array-valued) parameter leaf when it is concrete.
+
+    Used by the parameter modules' ``__check_init__``; traced values (inside ``jit``/``vmap``/
+    ``grad``) are skipped, because their values are not known when the module is built.
+    """
+    if _is_tracer(value):
+        return
+    import numpy as np
+
+    key = KEY_BY_DOTTED[f"{section}.{name}"]
+    arr = np.asarray(value, dtype=float)
+    flat = arr.reshape(-1)
+    for x in flat:
+        if not _in_range(key, float(x)):
+            raise ValueError(
+                f"{key.dotted} = {_fmt(arr)} is out of range: allowed {key.range_text()} [{key.unit}]"
+            )
+
+
+def check_less(a_name: str, a, b_name: str, b) -> None:
+    """Check the cross-key constraint ``a < b`` when both are concrete."""
+    if _is_tracer(a) or _is_tracer(b):
+        return
+    import numpy as np
+
+    if not np.all(np.asarray(a) < np.asarray(b)):
+        raise ValueError(f"{a_name} = {_fmt(a)} must be less than {b_name} = {_fmt(b)}")
+
+
+def check_quantum_efficiency(responsivity, wavelength) -> None:
+    """Responsivity may not exceed the ideal-detector limit e*lambda/(h*c) (quantum efficiency 1,
+    thesis Eq 3.16)."""
+    if _is_tracer(responsivity) or _is_tracer(wavelength):
+        return
+    import numpy as np
+
+    limit = ELEMENTARY_CHARGE_C * np.asarray(wavelength) / (PLANCK_J_S * SPEED_OF_LIGHT_M_PER_S)
+    if not np.all(np.asarray(responsivity) <= limit):
+        raise ValueError(
+            f"pixel.photo_responsivity_a_per_w = {_fmt(responsivity)} implies a quantum efficiency above 1 at "
+            f"illumination.wavelength_m = {_fmt(wavelength)}: allowed 0 < value <= {float(np.max(limit)):.4g} A/W"
+        )
+
+
+def defaults() -> dict[str, dict[str, Any]]:
+    """The default configuration as a nested ``{section: {key: value}}`` dict."""
+    out: dict[str, dict[str, Any]] = {s: {} for s in SECTIONS}
+    for k in KEYS:
+        out[k.section][k.name] = list(k.default) if isinstance(k.default, list) else k.default
+    return out
+
+
+def validate(raw: Mapping[str, Any], where: str = "") -> dict[str, dict[str, Any]]:
+    """Merge a partial nested mapping over the defaults and validate every value.
+
+    Unknown sections and keys are errors with a did-you-mean suggestion; cross-key constraints
+    (v_saturated < v_reset, v_ref_neg < v_ref_pos, sweep start < end, quantum efficiency <= 1) are
+    checked on the merged result.
+    """
+    loc = f"{where}: " if where else ""
+    merged = defaults()
+    if not isinstance(raw, Mapping):
+        raise ConfigError(f"{loc}a configuration must be a table of sections, got {type(raw).__name__}")
+    for section, table in raw.items():
+        if section not in merged:
+            raise ConfigError(
+                f"{loc}unknown section [{section}]; allowed: "
+                + ", ".join(f"[{s}]" for s in SECTIONS)
+                + suggest(section, SECTIONS)
+            )
+        if not isinstance(table, Mapping):
+            raise ConfigError(f"{loc}[{section}] must be a table of keys, got {_fmt(table)}")
+        names = [k.name for k in keys_of(section)]
+        for name, value in table.items():
+            if name not in names:
+                raise ConfigError(f"{loc}unknown key {section}.{name}" + suggest(name, names))
+            merged[section][name] = coerce(KEY_BY_DOTTED[f"{section}.{name}"], value, where)
+    p, a, s = merged["pixel"], merged["adc"], merged["scene"]
+    if not p["v_saturated_v"] < p["v_reset_v"]:
+        raise ConfigError(
+            f"{loc}pixel.v_saturated_v = {p['v_saturated_v']!r} must be less than pixel.v_reset_v = {p['v_reset_v']!r}"
+        )
+    if not a["v_ref_neg_v"] < a["v_ref_pos_v"]:
+        raise ConfigError(
+            f"{loc}adc.v_ref_neg_v = {a['v_ref_neg_v']!r} must be less than adc.v_ref_pos_v = {a['v_ref_pos_v']!r}"
+        )
+    for stem, unit in (("distance", "m"), ("illuminance", "lx"), ("integration_time", "s")):
+        lo, hi = s[f"{stem}_from_{unit}"], s[f"{stem}_to_{unit}"]
+        if not lo < hi:
+            raise ConfigError(
+                f"{loc}scene.{stem}_from_{unit} = {lo!r} must be less than scene.{stem}_to_{unit} = {hi!r}"
+            )
+    try:
+        check_quantum_efficiency(p["photo_responsivity_a_per_w"], merged["illumination"]["wavelength_m"])
+    except ValueError as err:
+        raise ConfigError(f"{loc}{err}") from None
+    return merged

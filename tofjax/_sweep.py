@@ -1,0 +1,59 @@
+"""Sweeps over distance, background illuminance or integration time (thesis §4.2.1.3)."""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from ._params import Scene
+from ._schema import KEY_BY_DOTTED, SWEEPS, check_array, suggest
+
+#: Sweep variable -> the scene field it replaces.
+SCENE_FIELD = {"distance": "distance_m", "illuminance": "illuminance_lx", "integration_time": "integration_time_s"}
+
+
+class Sweep(eqx.Module):
+    """The sample values of one swept quantity; the other two stay at the scene's nominal values.
+
+    **Fields:**
+    - ``variable``: ``"distance"`` (m), ``"illuminance"`` (lx) or ``"integration_time"`` (s); static.
+    - ``values``: the sample values, shape ``(samples,)``, in SI units; traced, so a gradient
+      with respect to e.g. the distance is available.
+    """
+
+    variable: str = eqx.field(static=True)
+    values: Float[Array, " samples"] = eqx.field(converter=lambda x: jnp.asarray(x, dtype=float))
+
+    def __check_init__(self):
+        if self.variable not in SWEEPS:
+            raise ValueError(
+                f"sweep = {self.variable!r} is not allowed: expected one of "
+                + ", ".join(repr(s) for s in SWEEPS) + suggest(self.variable, SWEEPS)
+            )
+        if self.values.ndim != 1 or self.values.shape[0] < 1:
+            raise ValueError(f"sweep values must be a non-empty 1-D array, got shape {self.values.shape}")
+        check_array("scene", SCENE_FIELD[self.variable], self.values)
+
+    @classmethod
+    def linspace(cls, variable: str, start: float, stop: float, samples: int) -> Sweep:
+        """``samples`` equally spaced values from ``start`` to ``stop`` (both included)."""
+        if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
+            raise ValueError(f"samples = {samples!r} is out of range: allowed integer >= 1")
+        key = KEY_BY_DOTTED.get(f"scene.{SCENE_FIELD.get(variable, '')}")
+        if key is not None and samples > 1 and not start < stop:
+            raise ValueError(f"sweep from = {start!r} must be less than to = {stop!r} ({key.unit})")
+        return cls(variable, np.linspace(start, stop, samples))
+
+    @property
+    def samples(self) -> int:
+        return self.values.shape[0]
+
+    def operating_points(self, scene: Scene) -> tuple[Array, Array, Array]:
+        """(distance_m, illuminance_lx, integration_time_s), each of shape ``(samples,)``."""
+        out = []
+        for variable, name in SCENE_FIELD.items():
+            nominal = getattr(scene, name)
+            out.append(self.values if variable == self.variable else jnp.broadcast_to(nominal, self.values.shape))
+        return tuple(out)

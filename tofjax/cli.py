@@ -1,0 +1,176 @@
+"""The ``tofjax`` command: ``simulate`` and ``config``.
+
+Errors in the user's input (arguments, configuration values, files) are printed as one line,
+``tofjax: error: ...``, without a traceback, and exit with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from ._config import Config, default_config_text, load_config
+from ._schema import SWEEPS, ConfigError
+from .sweepfile import SweepFileError
+
+_UNITS = {"distance": ("m", 1.0), "illuminance": ("lx", 1.0), "integration_time": ("ms", 1e3)}
+
+
+class _UsageError(Exception):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # argparse prints usage and exits 2; keep that, but say "tofjax: error:"
+        self.print_usage(sys.stderr)
+        self.exit(2, f"tofjax: error: {message}\n")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} is out of range: allowed integer >= 1")
+    return value
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if not 0 <= value < 2**63:
+        raise argparse.ArgumentTypeError(f"{value} is out of range: allowed 0 <= seed < 2^63")
+    return value
+
+
+def _float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not np.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="tofjax", description="Physical, differentiable CW Time-of-Flight camera model.")
+    parser.add_argument("--version", action="version", version=f"tofjax {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    sim = sub.add_parser("simulate", help="run a sweep and write a tofjax-sweep CSV",
+                         description="Run a sweep over distance, background illuminance or integration time "
+                                     "and write the tofjax-sweep CSV. Sweep ranges, samples and iterations "
+                                     "default to the configuration ([scene] *_from/*_to, samples; "
+                                     "[pixel] iterations).")
+    sim.add_argument("--config", type=Path, help="TOML configuration (default: built-in defaults)")
+    sim.add_argument("--sweep", required=True, choices=SWEEPS, help="the swept quantity")
+    sim.add_argument("--from", dest="start", type=_float, help="sweep start, SI units (m, lx, s)")
+    sim.add_argument("--to", dest="stop", type=_float, help="sweep end, SI units (m, lx, s)")
+    sim.add_argument("--samples", type=_positive_int, help="number of sweep samples")
+    sim.add_argument("--iterations", type=_positive_int, help="Monte Carlo frames per sample")
+    sim.add_argument("--method", choices=("mc", "analytic"), default="mc",
+                     help="mc: Monte Carlo frames (default); analytic: propagated variances")
+    sim.add_argument("--seed", type=_seed, default=0, help="random seed of the Monte Carlo (default 0)")
+    sim.add_argument("--fixed-pattern", action="store_true",
+                     help="draw the taps' dark slopes from the pixel population (pixel.dark_slope_sigma_v_per_s)")
+    sim.add_argument("--out", type=Path, required=True, help="output CSV (tofjax-sweep format)")
+
+    cfg = sub.add_parser("config", help="print the full default configuration with comments",
+                         description="Print the full default TOML configuration, a comment on every key "
+                                     "(meaning, unit, allowed range). A file may name only what it changes.")
+    cfg.add_argument("--out", type=Path, help="write to this file instead of standard output")
+    return parser
+
+
+def _summary(result, elapsed_s: float, out: Path) -> str:
+    unit, scale = _UNITS[result.sweep_variable]
+    values = np.asarray(result.sweep_values)
+    rows = np.unique(np.linspace(0, len(values) - 1, min(len(values), 10)).round().astype(int))
+    head = f"{result.sweep_variable + ' [' + unit + ']':>22} {'depth mean [m]':>15} {'depth std [mm]':>15} " \
+           f"{'rel. std [%]':>13} {'amplitude [LSB]':>16} {'valid [%]':>10}"
+    lines = [head, "-" * len(head)]
+    dist = np.asarray(result.distance_m)
+    for i in rows:
+        def cell(x, fmt):
+            x = float(x)
+            return "-" if np.isnan(x) else format(x, fmt)
+        lines.append(
+            f"{values[i] * scale:22.4g} {cell(result.depth_unwrapped_mean_m[i], '15.4f')} "
+            f"{cell(1e3 * result.depth_std_m[i], '15.3f')} {cell(100 * result.depth_std_m[i] / dist[i], '13.3f')} "
+            f"{cell(result.amplitude_mean_lsb[i], '16.1f')} {cell(100 * result.valid_fraction[i], '10.1f')}"
+        )
+    method = "Monte Carlo, %d frames/sample" % result.n_frames if result.method == "mc" else "analytic"
+    lines.append(f"{len(values)} samples ({method}); unambiguity range {float(result.unambiguity_range_m):.4f} m; "
+                 f"{elapsed_s:.2f} s; wrote {out}")
+    return "\n".join(lines)
+
+
+def _simulate(args) -> int:
+    import jax
+
+    from ._model import predict, simulate
+    from .sweepfile import columns_from_result, utc_now, write_sweep
+
+    config = load_config(args.config) if args.config else Config()
+    sweep = config.sweep(args.sweep, args.start, args.stop, args.samples)
+    params = config.params
+    iterations = args.iterations or config.iterations
+    t0 = time.perf_counter()
+    if args.method == "mc":
+        result = simulate(params, sweep, jax.random.key(args.seed), iterations, fixed_pattern=args.fixed_pattern)
+    else:
+        result = predict(params, sweep)
+    result = jax.device_get(result)
+    elapsed = time.perf_counter() - t0
+    metadata = {
+        "sweep": args.sweep, "source": "simulation", "method": args.method,
+        "modulation_frequency_hz": repr(float(params.illumination_waveform.modulation_frequency_hz)),
+        "n_phases": params.pixel.n_phases, "created_utc": utc_now(), "software": f"tofjax {__version__}",
+        "seed": args.seed if args.method == "mc" else "", "iterations": iterations if args.method == "mc" else 0,
+        "fixed_pattern": str(bool(args.fixed_pattern)).lower(),
+        "config_file": str(args.config) if args.config else "(built-in defaults)",
+        "config_json": json.dumps(config.values, separators=(",", ":")),
+    }
+    try:
+        write_sweep(args.out, metadata, columns_from_result(result))
+    except OSError as err:
+        raise _UsageError(f"cannot write {args.out}: {err.strerror or err}") from None
+    print(_summary(result, elapsed, args.out))
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        if args.command == "config":
+            text = default_config_text()
+            if args.out:
+                try:
+                    args.out.write_text(text, encoding="utf-8")
+                except OSError as err:
+                    raise _UsageError(f"cannot write {args.out}: {err.strerror or err}") from None
+            else:
+                print(text, end="")
+            return 0
+        return _simulate(args)
+    except (ConfigError, SweepFileError, _UsageError, ValueError) as err:
+        print(f"tofjax: error: {err}", file=sys.stderr)
+        return 2
+
+
+def entry_point() -> None:  # pragma: no cover - thin wrapper for the console script
+    sys.exit(main())
+
+
+if __name__ == "__main__":  # pragma: no cover
+    entry_point()

@@ -1,0 +1,323 @@
+"""The tofjax-sweep CSV format: the contract between simulating, recording and calibrating.
+
+Layout (UTF-8)::
+
+    # format: tofjax-sweep/1
+    # sweep: distance
+    # source: simulation
+    # modulation_frequency_hz: 80320000.0
+    # n_phases: 4
+    # created_utc: 2026-11-21T09:00:00+00:00
+    # ... more "# key: value" metadata lines ...
+    distance_m,integration_time_s,illuminance_lx,n_frames,depth_mean_m,depth_std_m,...
+    0.45,0.002,20.0,2000,0.4454,0.0021,...
+
+- The first line names the format and its version; a reader refuses versions it does not know.
+- Metadata keys are lower-case identifiers; values run to the end of the line. Required:
+  ``sweep`` (distance | illuminance | integration_time), ``source`` (simulation | measurement),
+  ``modulation_frequency_hz``, ``n_phases``, ``created_utc`` (ISO 8601).
+- The header names the columns (each once); the required ones are :data:`REQUIRED_COLUMNS`,
+  others (e.g. the simulation's noise breakdown) may follow. Cells are plain decimal numbers
+  (no quoting); an empty cell means "not measured" (read as NaN). Any other non-numeric cell,
+  including the text ``nan`` or ``inf``, is an error.
+- ``n_frames`` is the number of frames behind the row's statistics (0: an analytic prediction);
+  standard deviations are sample standard deviations (ddof = 1) over valid frames.
+
+Errors are :class:`SweepFileError` with the file, line and column.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import math
+import os
+import re
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import IO
+
+import numpy as np
+
+FORMAT_NAME = "tofjax-sweep"
+FORMAT_VERSION = 1
+FORMAT = f"{FORMAT_NAME}/{FORMAT_VERSION}"
+REQUIRED_METADATA = ("sweep", "source", "modulation_frequency_hz", "n_phases", "created_utc")
+REQUIRED_COLUMNS = (
+    "distance_m", "integration_time_s", "illuminance_lx", "n_frames", "depth_mean_m", "depth_std_m",
+    "amplitude_mean_lsb", "amplitude_std_lsb", "valid_fraction",
+)
+SWEEP_NAMES = ("distance", "illuminance", "integration_time")
+SOURCES = ("simulation", "measurement")
+_KEY = re.compile(r"[a-z][a-z0-9_.]*\Z")
+_META = re.compile(r"#\s*([^:]+?)\s*:\s?(.*)\Z")
+
+
+class SweepFileError(ValueError):
+    """A malformed sweep file; ``path``, ``line`` and ``column`` (1-based, or None) say where."""
+
+    def __init__(self, path, line: int | None, column: int | None, message: str):
+        self.path, self.line, self.column = str(path), line, column
+        where = str(path)
+        if line is not None:
+            where += f":{line}"
+            if column is not None:
+                where += f":{column}"
+        super().__init__(f"{where}: {message}")
+
+
+@dataclasses.dataclass
+class SweepData:
+    """A sweep file in memory: ``metadata`` (strings) and ``columns`` (float arrays, NaN = empty)."""
+
+    metadata: dict[str, str]
+    columns: dict[str, np.ndarray]
+    path: str | None = None
+
+    @property
+    def n_rows(self) -> int:
+        return len(next(iter(self.columns.values())))
+
+    @property
+    def sweep(self) -> str:
+        return self.metadata["sweep"]
+
+    @property
+    def modulation_frequency_hz(self) -> float:
+        return float(self.metadata["modulation_frequency_hz"])
+
+    @property
+    def n_phases(self) -> int:
+        return int(self.metadata["n_phases"])
+
+
+def _check_metadata(path, metadata: Mapping[str, str], lines: Mapping[str, int]) -> None:
+    def fail(key, message):
+        raise SweepFileError(path, lines.get(key), None, message)
+
+    for key in REQUIRED_METADATA:
+        if key not in metadata:
+            raise SweepFileError(path, None, None, f'missing required metadata line "# {key}: ..."')
+    if metadata["sweep"] not in SWEEP_NAMES:
+        fail("sweep", f"sweep = {metadata['sweep']!r} is not one of {', '.join(SWEEP_NAMES)}")
+    if metadata["source"] not in SOURCES:
+        fail("source", f"source = {metadata['source']!r} is not one of {', '.join(SOURCES)}")
+    try:
+        f = float(metadata["modulation_frequency_hz"])
+    except ValueError:
+        f = math.nan
+    if not (math.isfinite(f) and f > 0):
+        fail("modulation_frequency_hz",
+             f"modulation_frequency_hz = {metadata['modulation_frequency_hz']!r} is not a number > 0")
+    if metadata["n_phases"] not in ("2", "3", "4", "5"):
+        fail("n_phases", f"n_phases = {metadata['n_phases']!r} is not an integer 2..5")
+    try:
+        _dt.datetime.fromisoformat(metadata["created_utc"])
+    except ValueError:
+        fail("created_utc", f"created_utc = {metadata['created_utc']!r} is not an ISO 8601 time")
+
+
+def _check_value(path, line: int, column: int, name: str, x: float) -> None:
+    def fail(allowed):
+        raise SweepFileError(path, line, column, f"column {name} = {x!r} is out of range: allowed {allowed}")
+
+    if name == "n_frames" and not (x >= 0 and float(x).is_integer()):
+        fail("an integer >= 0")
+    if name == "valid_fraction" and not 0.0 <= x <= 1.0:
+        fail("0 <= value <= 1")
+    if ("_std_" in name or name.endswith("_std")) and x < 0:
+        fail("value >= 0 (a standard deviation)")
+    if name in ("distance_m", "integration_time_s") and not x > 0:
+        fail("value > 0")
+    if name == "illuminance_lx" and x < 0:
+        fail("value >= 0")
+
+
+def parse_sweep(text: str, path: str | os.PathLike = "<string>") -> SweepData:
+    """Parse the text of a sweep file (see the module docstring for the format)."""
+    lines = text.splitlines()
+    if not lines or lines[0].strip() != f"# format: {FORMAT}":
+        first = lines[0].strip() if lines else ""
+        match = re.fullmatch(r"#\s*format:\s*(\S+)", first)
+        if match and match.group(1).startswith(FORMAT_NAME + "/"):
+            raise SweepFileError(path, 1, 1, f"unsupported format version {match.group(1)!r}: this tofjax reads {FORMAT}")
+        raise SweepFileError(path, 1, 1, f'not a tofjax sweep file: the first line must be "# format: {FORMAT}"')
+    metadata: dict[str, str] = {"format": FORMAT}
+    meta_lines: dict[str, int] = {"format": 1}
+    i = 1
+    while i < len(lines) and lines[i].startswith("#"):
+        match = _META.match(lines[i].strip())
+        if not match or not _KEY.match(match.group(1)):
+            raise SweepFileError(path, i + 1, 1, f'malformed metadata line {lines[i]!r}: expected "# key: value" '
+                                                 "with a lower-case key")
+        key = match.group(1)
+        if key in metadata:
+            raise SweepFileError(path, i + 1, 1, f"metadata key {key!r} repeats line {meta_lines[key]}")
+        metadata[key], meta_lines[key] = match.group(2).strip(), i + 1
+        i += 1
+    _check_metadata(path, metadata, meta_lines)
+    if i >= len(lines) or not lines[i].strip():
+        raise SweepFileError(path, i + 1, 1, "missing header row after the metadata")
+    header_line = i + 1
+    header = [h.strip() for h in lines[i].split(",")]
+    for j, name in enumerate(header):
+        if not _KEY.match(name):
+            raise SweepFileError(path, header_line, _column(lines[i], j), f"bad column name {name!r}")
+        if name in header[:j]:
+            raise SweepFileError(path, header_line, _column(lines[i], j), f"column {name!r} appears twice")
+    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    if missing:
+        raise SweepFileError(path, header_line, None, "missing required column(s): " + ", ".join(missing))
+    rows: list[list[float]] = []
+    for k in range(i + 1, len(lines)):
+        raw = lines[k]
+        if not raw.strip():
+            continue
+        cells = raw.split(",")
+        if len(cells) != len(header):
+            raise SweepFileError(path, k + 1, _column(raw, min(len(cells), len(header)) - 1),
+                                 f"row has {len(cells)} cells, the header has {len(header)}")
+        row = []
+        for j, cell in enumerate(cells):
+            cell = cell.strip()
+            if not cell:
+                row.append(math.nan)
+                continue
+            try:
+                x = float(cell)
+            except ValueError:
+                x = math.nan
+            if not math.isfinite(x) or cell.lower().lstrip("+-") in ("nan", "inf", "infinity"):
+                raise SweepFileError(path, k + 1, _column(raw, j),
+                                     f"column {header[j]}: {cell!r} is not a finite number (leave the cell empty "
+                                     "for 'not measured')")
+            _check_value(path, k + 1, _column(raw, j), header[j], x)
+            row.append(x)
+        rows.append(row)
+    if not rows:
+        raise SweepFileError(path, len(lines) + 1, None, "no data rows")
+    data = np.array(rows, dtype=float)
+    return SweepData(metadata, {name: data[:, j] for j, name in enumerate(header)}, str(path))
+
+
+def _column(line: str, field: int) -> int:
+    """1-based character column where CSV field ``field`` (0-based) starts."""
+    cells = line.split(",")
+    return 1 + sum(len(c) + 1 for c in cells[: max(field, 0)])
+
+
+def read_sweep(path: str | os.PathLike) -> SweepData:
+    """Read a sweep file; raises :class:`SweepFileError` naming file, line and column."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SweepFileError(path, None, None, "file not found") from None
+    except UnicodeDecodeError as err:
+        raise SweepFileError(path, None, None, f"not UTF-8 text: {err}") from None
+    return parse_sweep(text, path)
+
+
+def _format_cell(x) -> str:
+    x = float(x)
+    return "" if math.isnan(x) else repr(x)
+
+
+def utc_now() -> str:
+    """The current time as ISO 8601 UTC, to the second."""
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+class SweepWriter:
+    """Write a sweep file row by row; every row is flushed and fsynced as it is written, so an
+    interrupted run leaves a valid file holding every completed row.
+
+    **Arguments:**
+    - ``path``: the file to create.
+    - ``metadata``: the ``# key: value`` lines (``format`` is added; ``created_utc`` defaults to now).
+    - ``columns``: the column names, in order; must include :data:`REQUIRED_COLUMNS`.
+    - ``sync``: fsync after every row (default); ``False`` syncs once, on close.
+    """
+
+    def __init__(self, path: str | os.PathLike, metadata: Mapping[str, object], columns: Iterable[str],
+                 *, sync: bool = True):
+        self.path = Path(path)
+        self.sync = sync
+        self.columns = list(columns)
+        meta = {"format": FORMAT, **{k: str(v) for k, v in metadata.items() if k != "format"}}
+        meta.setdefault("created_utc", utc_now())
+        for key, value in meta.items():
+            if not _KEY.match(key) or "\n" in value:
+                raise ValueError(f"metadata {key!r}: {value!r}: keys must be lower-case identifiers, values one line")
+        missing_meta = [k for k in REQUIRED_METADATA if k not in meta]
+        missing = [c for c in REQUIRED_COLUMNS if c not in self.columns]
+        if missing_meta or missing:
+            raise ValueError(f"sweep file {self.path}: missing metadata {missing_meta} / columns {missing}")
+        _check_metadata(self.path, meta, {})
+        self._file: IO[str] | None = open(self.path, "w", encoding="utf-8", newline="\n")
+        self._write("".join(f"# {k}: {v}\n" for k, v in meta.items()) + ",".join(self.columns) + "\n")
+
+    def _write(self, text: str) -> None:
+        assert self._file is not None, "SweepWriter is closed"
+        self._file.write(text)
+        self._file.flush()
+        if self.sync:
+            os.fsync(self._file.fileno())
+
+    def write_row(self, row: Mapping[str, float]) -> None:
+        """Append one row (missing or NaN values become empty cells)."""
+        unknown = set(row) - set(self.columns)
+        if unknown:
+            raise ValueError(f"unknown column(s) {sorted(unknown)} for sweep file {self.path}")
+        self._write(",".join(_format_cell(row.get(c, math.nan)) for c in self.columns) + "\n")
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.flush()
+            os.fsync(self._file.fileno())
+            self._file.close()
+            self._file = None
+
+    def __enter__(self) -> SweepWriter:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def write_sweep(path: str | os.PathLike, metadata: Mapping[str, object], columns: Mapping[str, Iterable[float]]) -> None:
+    """Write a whole sweep file from column arrays of equal length."""
+    arrays = {name: np.asarray(values, dtype=float).reshape(-1) for name, values in columns.items()}
+    lengths = {len(a) for a in arrays.values()}
+    if len(lengths) != 1:
+        raise ValueError(f"columns have different lengths: { {k: len(a) for k, a in arrays.items()} }")
+    with SweepWriter(path, metadata, arrays, sync=False) as writer:
+        for i in range(lengths.pop()):
+            writer.write_row({name: a[i] for name, a in arrays.items()})
+
+
+#: Columns a simulation writes beyond the required ones (the noise breakdown and flags).
+SIMULATION_COLUMNS = (
+    "depth_unwrapped_mean_m", "snr_db", "intensity_e", "signal_e", "background_e", "dark_e", "noise_reset_e",
+    "noise_hold_e", "noise_photon_shot_e", "noise_dark_shot_e", "noise_read_e", "noise_quantization_e",
+    "noise_total_e", "pixel_saturated_fraction", "adc_saturated_fraction", "sbi_active_fraction",
+)
+
+
+def columns_from_result(result) -> dict[str, np.ndarray]:
+    """The sweep-file columns of a :class:`tofjax.Result` (required columns first)."""
+    n = result.noise
+    frames = np.full(np.shape(result.distance_m), result.n_frames, dtype=float)
+    cols = {
+        "distance_m": result.distance_m, "integration_time_s": result.integration_time_s,
+        "illuminance_lx": result.illuminance_lx, "n_frames": frames, "depth_mean_m": result.depth_mean_m,
+        "depth_std_m": result.depth_std_m, "amplitude_mean_lsb": result.amplitude_mean_lsb,
+        "amplitude_std_lsb": result.amplitude_std_lsb, "valid_fraction": result.valid_fraction,
+        "depth_unwrapped_mean_m": result.depth_unwrapped_mean_m, "snr_db": result.snr_db,
+        "intensity_e": result.intensity_e, "signal_e": n.signal_e, "background_e": n.background_e,
+        "dark_e": n.dark_e, "noise_reset_e": n.reset_e, "noise_hold_e": n.hold_e,
+        "noise_photon_shot_e": n.photon_shot_e, "noise_dark_shot_e": n.dark_shot_e, "noise_read_e": n.read_e,
+        "noise_quantization_e": n.quantization_e, "noise_total_e": n.total_e,
+        "pixel_saturated_fraction": result.pixel_saturated_fraction,
+        "adc_saturated_fraction": result.adc_saturated_fraction, "sbi_active_fraction": result.sbi_active_fraction,
+    }
+    return {k: np.asarray(v, dtype=float) for k, v in cols.items()}
