@@ -175,8 +175,8 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>") -> SweepData:
             continue
         cells = raw.split(",")
         if len(cells) != len(header):
-            raise SweepFileError(path, k + 1, _column(raw, min(len(cells), len(header)) - 1),
-                                 f"row has {len(cells)} cells, the header has {len(header)}")
+            at = _column(raw, len(header)) if len(cells) > len(header) else len(raw) + 1
+            raise SweepFileError(path, k + 1, at, f"row has {len(cells)} cells, the header has {len(header)}")
         row = []
         for j, cell in enumerate(cells):
             cell = cell.strip()

@@ -1,0 +1,88 @@
+"""The tofjax command: config, simulate, and its error handling."""
+
+import re
+import subprocess
+import sys
+import tomllib
+
+import numpy as np
+import pytest
+
+import tofjax as tj
+from tofjax import sweepfile as sf
+from tofjax.cli import main
+
+
+def test_config_prints_the_commented_default_file(capsys, tmp_path):
+    assert main(["config"]) == 0
+    out = capsys.readouterr().out
+    assert tomllib.loads(out) == tj.Config().values
+    assert main(["config", "--out", str(tmp_path / "c.toml")]) == 0
+    assert tj.load_config(tmp_path / "c.toml").values == tj.Config().values
+
+
+@pytest.mark.parametrize("method", ["mc", "analytic"])
+def test_simulate_writes_a_readable_sweep_file(capsys, tmp_path, method):
+    out = tmp_path / "sweep.csv"
+    args = ["simulate", "--sweep", "distance", "--from", "0.5", "--to", "3", "--samples", "6", "--method", method,
+            "--iterations", "64", "--out", str(out)]
+    assert main(args) == 0
+    printed = capsys.readouterr().out
+    assert "depth std [mm]" in printed and "unambiguity range 1.8662 m" in printed and str(out) in printed
+    data = sf.read_sweep(out)
+    assert data.metadata["source"] == "simulation" and data.metadata["method"] == method
+    assert data.n_rows == 6 and data.n_phases == 4 and data.modulation_frequency_hz == 80.32e6
+    np.testing.assert_allclose(data.columns["distance_m"], np.linspace(0.5, 3, 6))
+    assert np.all(data.columns["n_frames"] == (64 if method == "mc" else 0))
+    assert np.all(data.columns["depth_std_m"] > 0)
+    assert tj.config_from_dict(__import__("json").loads(data.metadata["config_json"])).values == tj.Config().values
+
+
+def test_simulate_uses_the_configuration(tmp_path):
+    cfg = tmp_path / "cam.toml"
+    cfg.write_text("[pixel]\nn_phases = 3\n[scene]\nsamples = 4\nintegration_time_from_s = 1e-3\n")
+    out = tmp_path / "t.csv"
+    assert main(["simulate", "--config", str(cfg), "--sweep", "integration_time", "--method", "analytic",
+                 "--out", str(out)]) == 0
+    data = sf.read_sweep(out)
+    assert data.n_phases == 3 and data.n_rows == 4 and data.sweep == "integration_time"
+    np.testing.assert_allclose(data.columns["integration_time_s"], np.linspace(1e-3, 5e-3, 4))
+
+
+@pytest.mark.parametrize(
+    "config_text, extra, pattern",
+    [
+        ("[pixel]\ndemodulation_contrast = 1.7\n", [], "pixel.demodulation_contrast = 1.7 is out of range"),
+        ("[pixel]\nn_phases = \n", [], "line 2, column 12: malformed TOML"),
+        ("", ["--samples", "0"], "argument --samples: 0 is out of range"),
+        ("", ["--from", "3", "--to", "1"], "must be less than"),
+        ("", ["--from", "-1"], "scene.distance_m = .* is out of range"),
+    ],
+)
+def test_bad_input_exits_2_with_one_line(tmp_path, capsys, config_text, extra, pattern):
+    cfg = tmp_path / "cam.toml"
+    cfg.write_text(config_text)
+    args = ["simulate", "--config", str(cfg), "--sweep", "distance", "--method", "analytic", "--samples", "3",
+            "--out", str(tmp_path / "o.csv"), *extra]
+    assert _exit_code(args) == 2
+    err = capsys.readouterr().err
+    assert "tofjax: error:" in err and "Traceback" not in err
+    assert re.search(pattern, err), err
+
+
+def _exit_code(args):
+    """main() returns 2 for bad values; argparse raises SystemExit(2) for bad arguments."""
+    try:
+        return main(args)
+    except SystemExit as exc:
+        return exc.code
+
+
+def test_no_traceback_from_the_installed_entry_point(tmp_path):
+    cfg = tmp_path / "cam.toml"
+    cfg.write_text("[camera]\nk_lense = 0.8\n")
+    proc = subprocess.run([sys.executable, "-m", "tofjax.cli", "simulate", "--config", str(cfg), "--sweep", "distance",
+                           "--out", str(tmp_path / "x.csv")], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == ('tofjax: error: ' + str(cfg) + ': unknown key camera.k_lense (did you mean "k_lens"?)')
+    assert not (tmp_path / "x.csv").exists()
