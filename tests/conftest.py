@@ -13,7 +13,7 @@ jax.config.update("jax_numpy_rank_promotion", "raise")
 def tree_allclose(x, y, *, rtol=1e-7, atol=0.0) -> bool:
     leaves_x, tree_x = jax.tree_util.tree_flatten(x)
     leaves_y, tree_y = jax.tree_util.tree_flatten(y)
-    return tree_x == tree_y and all(np.allclose(a, b, rtol=rtol, atol=atol) for a, b in zip(leaves_x, leaves_y))
+    return tree_x == tree_y and all(np.allclose(a, b, rtol=rtol, atol=atol) for a, b in zip(leaves_x, leaves_y, strict=True))
 
 
 @pytest.fixture(scope="session")

@@ -20,7 +20,7 @@ def test_default_file_parses_to_the_defaults_and_comments_every_key():
     lines = text.splitlines()
     assignments = [i for i, line in enumerate(lines) if " = " in line and not line.startswith("#")]
     assert len(assignments) == len(KEYS)
-    for i, key in zip(assignments, KEYS):
+    for i, key in zip(assignments, KEYS, strict=True):
         assert lines[i].startswith(f"{key.name} = ")
         assert lines[i - 1].startswith("# ") and "allowed:" in lines[i - 1] and f"[{key.unit}]" in lines[i - 1]
 

@@ -53,7 +53,7 @@ def _on_grid(wavelength_m: np.ndarray, values: np.ndarray) -> np.ndarray:
     return np.interp(_GRID_M, wavelength_m, values, left=0.0, right=0.0)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def spectrum(background: str) -> tuple[np.ndarray, np.ndarray]:
     """The relative spectral irradiance of a background lamp on the common grid (m, arbitrary)."""
     if background == "sunlight":
@@ -68,7 +68,7 @@ def spectrum(background: str) -> tuple[np.ndarray, np.ndarray]:
                      '"sunlight", "halogen", "incandescent", "fluorescent"')
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def photopic_v() -> tuple[np.ndarray, np.ndarray]:
     """CIE 1924 photopic V(lambda) on the common grid."""
     return _GRID_M, _on_grid(*_read_table("cie_1924_photopic_v.csv"))
@@ -78,7 +78,7 @@ def _cumtrapz(y: np.ndarray, x: np.ndarray) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(x))])
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _tables(background: str) -> tuple[float, np.ndarray, np.ndarray]:
     """(int V E dlambda, cumulative int E lambda dlambda, cumulative int E dlambda), the last two
     cut at the silicon band gap, for the normalised-later spectrum E."""

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ._params import SECTION_CLASSES, Params
-from ._schema import SECTIONS, ConfigError, defaults, keys_of, validate
+from ._schema import SECTIONS, ConfigError, defaults, keys_of, suggest, validate
 from ._sweep import Sweep
 
 #: Sweep name -> (scene key of the start, scene key of the end).
@@ -54,7 +54,8 @@ class Config:
               samples: int | None = None) -> Sweep:
         """The sweep over ``variable`` with the configured range and samples unless overridden."""
         if variable not in SWEEP_RANGE_KEYS:
-            return Sweep(variable, [1.0])  # raises the standard error naming the allowed sweeps
+            raise ValueError(f"sweep = {variable!r} is not allowed: expected one of "
+                             + ", ".join(repr(s) for s in SWEEP_RANGE_KEYS) + suggest(variable, SWEEP_RANGE_KEYS))
         lo_key, hi_key = SWEEP_RANGE_KEYS[variable]
         scene = self.values["scene"]
         start = scene[lo_key] if start is None else start

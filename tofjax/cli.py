@@ -109,7 +109,7 @@ def _summary(result, elapsed_s: float, out: Path) -> str:
             f"{cell(1e3 * result.depth_std_m[i], '15.3f')} {cell(100 * result.depth_std_m[i] / dist[i], '13.3f')} "
             f"{cell(result.amplitude_mean_lsb[i], '16.1f')} {cell(100 * result.valid_fraction[i], '10.1f')}"
         )
-    method = "Monte Carlo, %d frames/sample" % result.n_frames if result.method == "mc" else "analytic"
+    method = f"Monte Carlo, {result.n_frames} frames/sample" if result.method == "mc" else "analytic"
     lines.append(f"{len(values)} samples ({method}); unambiguity range {float(result.unambiguity_range_m):.4f} m; "
                  f"{elapsed_s:.2f} s; wrote {out}")
     return "\n".join(lines)

@@ -224,7 +224,7 @@ def _format_cell(x) -> str:
 
 def utc_now() -> str:
     """The current time as ISO 8601 UTC, to the second."""
-    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
 
 
 class SweepWriter:
