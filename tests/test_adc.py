@@ -93,3 +93,15 @@ def test_disabled_adc_is_the_ideal_continuous_readout():
     u = _adc.code_position(adc, v)
     np.testing.assert_allclose(_adc.quantize(adc, u), 2048 + v / (1.6 / 4096))
     assert not np.any(_adc.saturated(adc, u))
+
+
+@pytest.mark.parametrize("dnl", [0.0, 0.4, 0.8])
+def test_quantization_variance_matches_a_dithered_measurement(dnl):
+    """Independent: the variance of code - u for u spread uniformly over many codes."""
+    adc = tofjax.ADC(offset_error_lsb=0.0, gain_error_percent_fsr=0.0, integral_nonlinearity_lsb=0.0,
+                     differential_nonlinearity_lsb=dnl)
+    u = jnp.asarray(np.random.default_rng(1).uniform(100.0, 3900.0, 400_000))
+    measured = np.mean(np.asarray(_adc.quantize(adc, u) - u) ** 2)
+    assert float(_adc.quantization_variance_lsb2(adc)) == pytest.approx(measured, rel=0.01)  # MC: ~0.3 %
+    if dnl == 0.0:
+        assert float(_adc.quantization_variance_lsb2(adc)) == pytest.approx(1 / 12, rel=1e-9)

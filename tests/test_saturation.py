@@ -48,7 +48,17 @@ def test_smooth_mode_tends_to_the_hard_mode(sbi):
     errors = [float(jnp.max(jnp.abs(jnp.stack(saturate(n_a, n_b, WELL, sbi, jnp.asarray(t))) - hard)))
               for t in (1000.0, 100.0, 10.0)]
     assert errors[0] > errors[1] > errors[2]
-    assert errors[2] < 10.0  # within ~ln2 x temperature
+    assert errors[2] < 10.0  # within 3/16 x temperature (the switch's value at the kink)
+
+
+@pytest.mark.parametrize("sbi", [False, True])
+def test_smooth_mode_is_exact_away_from_the_limits(sbi):
+    """Small tap charges (far from the well and from V_reset) pass unchanged: no softplus tail."""
+    n_a = jnp.array([450.0, 1000.0, 5000.0, 60000.0])
+    n_b = jnp.array([900.0, 800.0, 5200.0, 40000.0])
+    smooth = saturate(n_a, n_b, WELL, sbi, jnp.asarray(437.0))
+    np.testing.assert_array_equal(smooth[0], n_a)
+    np.testing.assert_array_equal(smooth[1], n_b)
 
 
 @settings(max_examples=60, deadline=None)

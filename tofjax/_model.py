@@ -36,12 +36,13 @@ class Smooth(eqx.Module):
     """Temperatures of the smooth relaxation (differentiable everywhere; hard mode as they -> 0).
 
     **Fields:**
-    - ``saturation_temperature_v``: width of the soft saturation and SBI switching, V at the tap.
+    - ``saturation_temperature_v``: half-width of the soft saturation and SBI switching, V at the
+      tap (1 mV = 87 electrons at 14 fF); exact where every tap is further than that from a limit.
     - ``adc_temperature_lsb``: width of each smoothed quantiser step and of the soft ADC rails,
       LSB; physically the rms input noise that would blur the staircase that much.
     """
 
-    saturation_temperature_v: Float[Array, ""] = eqx.field(converter=_f64, default=5e-3)
+    saturation_temperature_v: Float[Array, ""] = eqx.field(converter=_f64, default=1e-3)
     adc_temperature_lsb: Float[Array, ""] = eqx.field(converter=_f64, default=0.3)
 
     def __check_init__(self):
@@ -110,10 +111,8 @@ def _noise_breakdown(params: Params, ex: _Expected) -> NoiseBreakdown:
     shot = jnp.sqrt(ex.active_e + ex.background_e)
     dark_shot = jnp.sqrt(dark)
     read = jnp.sqrt(reset_e**2 + hold_e**2 + dark_shot**2)
-    if params.adc.enabled:
-        quant = params.adc.lsb_v * _electrons_per_volt(params) / jnp.sqrt(12.0) * jnp.ones_like(ex.active_e)
-    else:
-        quant = jnp.zeros_like(ex.active_e)
+    quant_lsb = jnp.sqrt(_adc.quantization_variance_lsb2(params.adc))
+    quant = quant_lsb * params.adc.lsb_v * _electrons_per_volt(params) * jnp.ones_like(ex.active_e)
     total = jnp.sqrt(read**2 + shot**2 + quant**2)
     return NoiseBreakdown(ex.active_e, ex.background_e, dark, reset_e, hold_e, shot, dark_shot, read, quant, total)
 
@@ -139,9 +138,12 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None) -> Re
 
     Each phase image's expected code and its variance come from linearising the chain at the
     expected tap charges: shot noise of every collected electron (signal, background, dark) and
-    reset kTC noise before SBI/saturation, hold kTC noise after it, and q^2/12 of quantisation.
+    reset kTC noise before SBI/saturation, hold kTC noise after it, and the quantisation variance
+    (q^2/12 for an ideal ADC, more with DNL).
     The depth and amplitude standard deviations follow from the gradients of the phase and
-    amplitude estimators with respect to the phase images.
+    amplitude estimators with respect to the phase images, with second-order terms: the amplitude
+    mean includes the curvature term (the noise bias of |Z|), and the phase variance v becomes
+    v (1 + v), the next order for circular complex Gaussian noise.
 
     **Arguments:**
     - ``params``: the camera (:class:`tofjax.Params`).
@@ -177,18 +179,25 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None) -> Re
         reset2 = reset_noise_e(pixel, params.constants) ** 2
         hold2 = hold_noise_e(pixel, params.constants) ** 2
         var = slope_a**2 * (n_a + reset2) + slope_b**2 * (n_b + reset2) + slope_x**2 * 2.0 * hold2
-        if adc.enabled:
-            var = var + 1.0 / 12.0
+        var = var + _adc.quantization_variance_lsb2(adc)
     else:
         var = jnp.zeros_like(code)
 
     values = code - _adc.mid_code(adc)
     n_phases = pixel.n_phases
     phase = _depth.phase_rad(_depth.demodulate(values))
-    amp = _depth.amplitude(_depth.demodulate(values), n_phases)
+
+    def amp_fn(v):
+        return _depth.amplitude(_depth.demodulate(v), n_phases)
+
     grad_phase = jax.vmap(jax.grad(lambda v: jnp.angle(_depth.demodulate(v) + 0j)))(values)
-    grad_amp = jax.vmap(jax.grad(lambda v: _depth.amplitude(_depth.demodulate(v), n_phases)))(values)
+    grad_amp = jax.vmap(jax.grad(amp_fn))(values)
+    curvature = jnp.diagonal(jax.vmap(jax.hessian(amp_fn))(values), axis1=-2, axis2=-1)
+    # Second-order mean of the amplitude: the noise raises E|Z| (the Rician bias, ~ s^2 / 2A).
+    amp = jax.vmap(amp_fn)(values) + 0.5 * jnp.sum(curvature * var, axis=-1)
     var_phase = jnp.sum(grad_phase**2 * var, axis=-1)
+    # Next order of the phase variance for circular complex Gaussian noise: s^2/A^2 (1 + s^2/A^2).
+    var_phase = var_phase * (1.0 + var_phase)
     var_amp = jnp.sum(grad_amp**2 * var, axis=-1)
     std_phase = jnp.where(var_phase > 0, jnp.sqrt(jnp.where(var_phase > 0, var_phase, 1.0)), 0.0)
     std_amp = jnp.where(var_amp > 0, jnp.sqrt(jnp.where(var_amp > 0, var_amp, 1.0)), 0.0)

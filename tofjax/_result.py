@@ -17,7 +17,8 @@ class NoiseBreakdown(eqx.Module):
     - ``photon_shot_e``: shot noise of the signal and background electrons.
     - ``dark_shot_e``: shot noise of the dark electrons.
     - ``read_e``: reset, hold and dark shot noise in quadrature (§5.5.1).
-    - ``quantization_e``: q / sqrt(12) referred to electrons (0 without ADC).
+    - ``quantization_e``: rms quantisation error (q / sqrt(12) for an ideal ADC, more with DNL)
+      referred to electrons (0 without ADC).
     - ``total_e``: read, photon shot and quantisation noise in quadrature.
     """
 

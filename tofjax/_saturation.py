@@ -11,14 +11,17 @@ N_sat = (V_reset - V_saturated) C / e.
   saturates only when it gets there, i.e. when |n_A - n_B| reaches N_sat. In closed form both
   taps lose max(0, max(n_A, n_B) - N_sat), then are floored at 0 (V_reset).
 
-The hard mode is exact. The smooth mode replaces max(0, x) by s softplus(x / s) and the max of
-the two taps by s logaddexp(n_A/s, n_B/s) with a temperature s in electrons; it tends to the hard
-mode as s -> 0 and has finite gradients everywhere.
+The hard mode is exact. The smooth mode replaces max(0, x) by a C^2 switch of half-width s (the
+temperature, in electrons): 0 below -s, x above +s, and s (2u^3 - u^4) with u = (x/s + 1)/2 in
+between; max(a, b) = b + relu(a - b). It tends to the hard mode as s -> 0, has finite first and
+second derivatives everywhere, and - unlike softplus, whose exponential tails would shift a tap
+holding a few hundred electrons - it is exact wherever every tap holds more than s electrons and
+lies more than s below the full well (and, with SBI, the taps differ by more than s or both are
+more than s below it).
 """
 
 from __future__ import annotations
 
-import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float
 
@@ -26,13 +29,13 @@ from jaxtyping import Array, Bool, Float
 def _relu(x: Array, temperature: Array | None) -> Array:
     if temperature is None:
         return jnp.maximum(x, 0.0)
-    return temperature * jax.nn.softplus(x / temperature)
+    u = jnp.clip(0.5 * (x / temperature + 1.0), 0.0, 1.0)
+    inner = temperature * (2.0 * u**3 - u**4)
+    return jnp.where(x >= temperature, x, jnp.where(x <= -temperature, 0.0, inner))
 
 
 def _max(a: Array, b: Array, temperature: Array | None) -> Array:
-    if temperature is None:
-        return jnp.maximum(a, b)
-    return temperature * jnp.logaddexp(a / temperature, b / temperature)
+    return b + _relu(a - b, temperature)
 
 
 def saturate(

@@ -14,17 +14,28 @@ from ._schema import KEY_BY_DOTTED, SWEEPS, check_array, suggest
 SCENE_FIELD = {"distance": "distance_m", "illuminance": "illuminance_lx", "integration_time": "integration_time_s"}
 
 
+def _optional_f64(x):
+    return None if x is None else jnp.asarray(x, dtype=float)
+
+
 class Sweep(eqx.Module):
-    """The sample values of one swept quantity; the other two stay at the scene's nominal values.
+    """The sample values of one swept quantity; the other two stay at the scene's nominal values
+    unless given per sample (as in a measured file, where each row records all three).
 
     **Fields:**
     - ``variable``: ``"distance"`` (m), ``"illuminance"`` (lx) or ``"integration_time"`` (s); static.
     - ``values``: the sample values, shape ``(samples,)``, in SI units; traced, so a gradient
       with respect to e.g. the distance is available.
+    - ``distance_m``, ``illuminance_lx``, ``integration_time_s``: optional per-sample values of
+      the quantities that are not swept (``None``: the scene's nominal value). Use
+      :meth:`Sweep.points` to build a sweep from three columns.
     """
 
     variable: str = eqx.field(static=True)
     values: Float[Array, " samples"] = eqx.field(converter=lambda x: jnp.asarray(x, dtype=float))
+    distance_m: Float[Array, " samples"] | None = eqx.field(default=None, converter=_optional_f64)
+    illuminance_lx: Float[Array, " samples"] | None = eqx.field(default=None, converter=_optional_f64)
+    integration_time_s: Float[Array, " samples"] | None = eqx.field(default=None, converter=_optional_f64)
 
     def __check_init__(self):
         if self.variable not in SWEEPS:
@@ -35,6 +46,22 @@ class Sweep(eqx.Module):
         if self.values.ndim != 1 or self.values.shape[0] < 1:
             raise ValueError(f"sweep values must be a non-empty 1-D array, got shape {self.values.shape}")
         check_array("scene", SCENE_FIELD[self.variable], self.values)
+        for name in SCENE_FIELD.values():
+            column = getattr(self, name)
+            if column is None:
+                continue
+            if column.shape != self.values.shape:
+                raise ValueError(f"sweep {name} has shape {column.shape}, the sweep values {self.values.shape}")
+            check_array("scene", name, column)
+
+    @classmethod
+    def points(cls, variable: str, distance_m, illuminance_lx, integration_time_s) -> Sweep:
+        """A sweep whose every sample sets all three operating-point quantities."""
+        columns = {"distance_m": distance_m, "illuminance_lx": illuminance_lx, "integration_time_s": integration_time_s}
+        if variable not in SCENE_FIELD:
+            raise ValueError(f"sweep = {variable!r} is not allowed: expected one of "
+                             + ", ".join(repr(s) for s in SWEEPS) + suggest(variable, SWEEPS))
+        return cls(variable, columns[SCENE_FIELD[variable]], **columns)
 
     @classmethod
     def linspace(cls, variable: str, start: float, stop: float, samples: int) -> Sweep:
@@ -54,6 +81,11 @@ class Sweep(eqx.Module):
         """(distance_m, illuminance_lx, integration_time_s), each of shape ``(samples,)``."""
         out = []
         for variable, name in SCENE_FIELD.items():
-            nominal = getattr(scene, name)
-            out.append(self.values if variable == self.variable else jnp.broadcast_to(nominal, self.values.shape))
+            given = getattr(self, name)
+            if variable == self.variable:
+                out.append(self.values)
+            elif given is not None:
+                out.append(given)
+            else:
+                out.append(jnp.broadcast_to(getattr(scene, name), self.values.shape))
         return tuple(out)

@@ -1,7 +1,13 @@
-"""The ``tofjax`` command: ``simulate`` and ``config``.
+"""The ``tofjax`` command: ``simulate`` and ``config``, plus the subcommands other packages of the
+distribution register (``calibrate`` from ``fitting``, ``record`` from ``measurements``).
+
+Those register through the entry-point group ``tofjax.commands``: each entry point is a function
+``register(subparsers)`` that adds its parser and sets ``run=handler`` (``handler(args) -> int``).
+So this command reaches every package while ``tofjax`` itself imports none of them.
 
 Errors in the user's input (arguments, configuration values, files) are printed as one line,
-``tofjax: error: ...``, without a traceback, and exit with status 2.
+``tofjax: error: ...``, without a traceback, and exit with status 2; a :class:`CommandError`
+carries its own message and exit status.
 """
 
 from __future__ import annotations
@@ -10,6 +16,7 @@ import argparse
 import json
 import sys
 import time
+from importlib.metadata import entry_points
 from pathlib import Path
 
 import numpy as np
@@ -22,8 +29,17 @@ from .sweepfile import SweepFileError
 _UNITS = {"distance": ("m", 1.0), "illuminance": ("lx", 1.0), "integration_time": ("ms", 1e3)}
 
 
-class _UsageError(Exception):
-    pass
+class CommandError(Exception):
+    """A failure a subcommand reports as one line with its own exit status (default 1)."""
+
+    def __init__(self, message: str, exit_code: int = 1):
+        super().__init__(message)
+        self.exit_code = exit_code
+
+
+class _UsageError(CommandError):
+    def __init__(self, message: str):
+        super().__init__(message, 2)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -89,6 +105,8 @@ def build_parser() -> argparse.ArgumentParser:
                          description="Print the full default TOML configuration, a comment on every key "
                                      "(meaning, unit, allowed range). A file may name only what it changes.")
     cfg.add_argument("--out", type=Path, help="write to this file instead of standard output")
+    for ep in sorted(entry_points(group="tofjax.commands"), key=lambda e: e.name):
+        ep.load()(sub)
     return parser
 
 
@@ -152,6 +170,8 @@ def _simulate(args) -> int:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        if getattr(args, "run", None) is not None:
+            return args.run(args)
         if args.command == "config":
             text = default_config_text()
             if args.out:
@@ -163,7 +183,10 @@ def main(argv: list[str] | None = None) -> int:
                 print(text, end="")
             return 0
         return _simulate(args)
-    except (ConfigError, SweepFileError, _UsageError, ValueError) as err:
+    except CommandError as err:
+        print(f"tofjax: error: {err}", file=sys.stderr)
+        return err.exit_code
+    except (ConfigError, SweepFileError, ValueError) as err:
         print(f"tofjax: error: {err}", file=sys.stderr)
         return 2
 

@@ -73,6 +73,10 @@ class SweepData:
     metadata: dict[str, str]
     columns: dict[str, np.ndarray]
     path: str | None = None
+    #: 1-based line number of each data row in the file.
+    lines: np.ndarray | None = None
+    #: Column name -> 1-based field number in the header.
+    fields: dict[str, int] = dataclasses.field(default_factory=dict)
 
     @property
     def n_rows(self) -> int:
@@ -169,10 +173,12 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>") -> SweepData:
     if missing:
         raise SweepFileError(path, header_line, None, "missing required column(s): " + ", ".join(missing))
     rows: list[list[float]] = []
+    row_lines: list[int] = []
     for k in range(i + 1, len(lines)):
         raw = lines[k]
         if not raw.strip():
             continue
+        row_lines.append(k + 1)
         cells = raw.split(",")
         if len(cells) != len(header):
             at = _column(raw, len(header)) if len(cells) > len(header) else len(raw) + 1
@@ -197,7 +203,8 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>") -> SweepData:
     if not rows:
         raise SweepFileError(path, len(lines) + 1, None, "no data rows")
     data = np.array(rows, dtype=float)
-    return SweepData(metadata, {name: data[:, j] for j, name in enumerate(header)}, str(path))
+    return SweepData(metadata, {name: data[:, j] for j, name in enumerate(header)}, str(path),
+                     np.array(row_lines), {name: j + 1 for j, name in enumerate(header)})
 
 
 def _column(line: str, field: int) -> int:

@@ -1,0 +1,275 @@
+"""The calibration workflow: files + configuration -> least squares (-> posterior) -> outputs.
+
+:func:`calibrate` mirrors ``tofjax calibrate``; :meth:`Calibration.write` writes the calibrated
+configuration (TOML, usable by ``tofjax simulate``), a JSON of estimates, uncertainties,
+correlations and diagnostics, PNG figures and a short Markdown report.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import tofjax as tj
+from tofjax._config import render_toml
+from tofjax.sweepfile import utc_now
+
+from ._data import OBSERVABLES, SweepRows, load_rows
+from ._least_squares import LeastSquaresResult, fit_least_squares
+from ._parameters import make_parameters
+from ._posterior import PosteriorResult, sample_posterior
+from ._problem import Problem, build_problem, evaluate
+
+_AXIS = {"distance": ("distance [m]", 1.0), "illuminance": ("background illuminance [lx]", 1.0),
+         "integration_time": ("integration time [ms]", 1e3)}
+_LABEL = {"amplitude_mean_lsb": "amplitude [LSB]", "depth_std_m": "depth noise [mm]"}
+_SCALE = {"amplitude_mean_lsb": 1.0, "depth_std_m": 1e3}
+
+
+@dataclasses.dataclass
+class Calibration:
+    """Everything a calibration produced."""
+
+    config: tj.Config
+    rows: list[SweepRows]
+    problem: Problem
+    least_squares: LeastSquaresResult
+    posterior: PosteriorResult | None
+
+    @property
+    def estimates(self) -> dict[str, float]:
+        return dict(zip(self.least_squares.names, map(float, self.least_squares.estimate), strict=True))
+
+    def calibrated_config(self) -> tj.Config:
+        """The input configuration with the least-squares estimates."""
+        config = self.config
+        for name, value in self.estimates.items():
+            config = config.replace(name, value)
+        return config
+
+    def as_dict(self) -> dict:
+        return {
+            "software": f"tofjax {tj.__version__}", "created_utc": utc_now(),
+            "files": [{"path": r.path, "sweep": r.sweep_variable, "rows": r.n_rows,
+                       "residuals": {name: int(len(r.used(name))) for name in OBSERVABLES},
+                       "excluded_rows": r.excluded} for r in self.rows],
+            "least_squares": self.least_squares.as_dict(),
+            "posterior": self.posterior.as_dict() if self.posterior is not None else None,
+        }
+
+    def write(self, out: str | Path) -> list[Path]:
+        """Write all outputs into directory ``out`` (created if needed); returns the paths."""
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        written = []
+        header = "".join(f"# calibrated by tofjax calibrate from {r.path}\n" for r in self.rows)
+        toml_path = out / "calibrated.toml"
+        toml_path.write_text(header + render_toml(self.calibrated_config().values), encoding="utf-8")
+        json_path = out / "calibration.json"
+        json_path.write_text(json.dumps(self.as_dict(), indent=2), encoding="utf-8")
+        written += [toml_path, json_path]
+        written += _figures(self, out)
+        report = out / "report.md"
+        report.write_text(_report(self, [p.name for p in written if p.suffix == ".png"]), encoding="utf-8")
+        written.append(report)
+        return written
+
+
+def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, priors=None,
+              relative_error: float | None = None, min_snr: float = 5.0, smooth: tj.Smooth | None = None,
+              mcmc: bool = False, walkers: int = 32, steps: int = 2000, seed: int = 0, backend=None,
+              resume: bool = False, progress: bool = False, max_steps: int = 256) -> Calibration:
+    """Calibrate the parameters ``fit`` (dotted names) against sweep files.
+
+    **Arguments:**
+    - ``paths``: tofjax-sweep files (each with its operating points per row).
+    - ``config``: the camera (:class:`tofjax.Config`; default: built-in defaults). Its values are the
+      starting point; a file's metadata may override keys for that file.
+    - ``fit``: names such as ``pixel.demodulation_contrast``; ``bounds``: ``{name: (lo, hi)}``
+      (default: the configuration's validation range); ``priors``: ``{name: (mean, sigma)}``.
+    - ``relative_error``: replace every row's uncertainty by this fraction of its value.
+    - ``min_snr``: rows whose measured amplitude mean / std is below it are left out.
+    - ``mcmc``, ``walkers``, ``steps``, ``seed``, ``backend``, ``resume``, ``progress``: posterior
+      sampling (see :func:`fitting.sample_posterior`).
+    - ``max_steps``: least-squares step limit.
+    """
+    config = config if config is not None else tj.Config()
+    if isinstance(paths, (str, Path)):
+        paths = [paths]
+    if not paths:
+        raise ValueError("no sweep file given")
+    rows = [load_rows(p, config, relative_error=relative_error, min_snr=min_snr) for p in paths]
+    names = [fit] if isinstance(fit, str) else list(fit)
+    initial = {name: float(_leaf(config.params, name)) for name in names if _known(name)}
+    parameters = make_parameters(names, initial, bounds, priors)
+    problem = build_problem(parameters, rows, smooth, relative_error)
+    ls = fit_least_squares(problem, max_steps=max_steps, paths=[r.path for r in rows])
+    post = None
+    if mcmc:
+        post = sample_posterior(problem, ls, walkers=walkers, steps=steps, seed=seed, backend_path=backend,
+                                resume=resume, progress=progress)
+    return Calibration(config, rows, problem, ls, post)
+
+
+def _known(name: str) -> bool:
+    from ._parameters import fittable_names
+
+    return name in fittable_names()
+
+
+def _leaf(params: tj.Params, name: str):
+    section, field = name.split(".")
+    return getattr(getattr(params, section), field)
+
+
+def _dense_sweep(rows: SweepRows, n: int = 160) -> tj.Sweep:
+    s = rows.sweep
+    order = np.argsort(np.asarray(s.values))
+    x = np.asarray(s.values)[order]
+    grid = np.linspace(x[0], x[-1], n) if x[-1] > x[0] else x[:1]
+    cols = {name: np.interp(grid, x, np.asarray(getattr(s, name))[order])
+            for name in ("distance_m", "illuminance_lx", "integration_time_s")}
+    return tj.Sweep.points(s.variable, cols["distance_m"], cols["illuminance_lx"], cols["integration_time_s"])
+
+
+def _curve(theta, problem: Problem, i: int, sweep: tj.Sweep):
+    r = problem.predict(theta, i, sweep)
+    return jnp.stack([r.amplitude_mean_lsb, r.depth_std_m])
+
+
+_curve_jit = eqx.filter_jit(_curve)
+_curves_batch = eqx.filter_jit(lambda thetas, problem, i, sweep: jax.vmap(_curve, in_axes=(0, None, None, None))(
+    thetas, problem, i, sweep))
+_curve_jacobian = eqx.filter_jit(lambda theta, problem, i, sweep: jax.jacfwd(_curve)(theta, problem, i, sweep))
+
+
+def _curves(cal: Calibration, i: int, sweep: tj.Sweep):
+    """Model curves at the estimate and their 68 % band (posterior percentiles, or linear
+    propagation of the least-squares covariance; None where a parameter is undetermined)."""
+    problem, ls = cal.problem, cal.least_squares
+    estimate = jnp.asarray(ls.estimate)
+    centre = np.asarray(_curve_jit(estimate, problem, i, sweep))
+    if cal.posterior is not None:
+        rng = np.random.default_rng(0)
+        draws = cal.posterior.samples[rng.choice(len(cal.posterior.samples), size=min(200, len(cal.posterior.samples)),
+                                                 replace=False)]
+        curves = np.asarray(_curves_batch(jnp.asarray(draws), problem, i, sweep))
+        return centre, np.percentile(curves, 16, axis=0), np.percentile(curves, 84, axis=0)
+    if not np.all(np.isfinite(ls.covariance)):
+        return centre, None, None
+    jac = np.asarray(_curve_jacobian(estimate, problem, i, sweep))  # (2, n, params)
+    sd = np.sqrt(np.einsum("oip,pq,oiq->oi", jac, ls.covariance, jac))
+    return centre, centre - sd, centre + sd
+
+
+def _figures(cal: Calibration, out: Path) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    written = []
+    for i, rows in enumerate(cal.rows):
+        label, xs = _AXIS[rows.sweep_variable]
+        dense = _dense_sweep(rows)
+        centre, lo, hi = _curves(cal, i, dense)
+        x_all = np.asarray(rows.sweep.values) * xs
+        fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
+        evaluated = evaluate(cal.problem, jnp.asarray(cal.least_squares.estimate))[i]
+        for k, (ax, name) in enumerate(zip(axes, OBSERVABLES, strict=True)):
+            idx = rows.used(name)
+            values, sigma = rows.data[name][0][idx], np.asarray(evaluated[k][1])[idx]
+            scale = _SCALE[name]
+            xd = np.asarray(dense.values) * xs
+            if lo is not None:
+                ax.fill_between(xd, lo[k] * scale, hi[k] * scale, color="C1", alpha=0.3, label="model 68 % band")
+            ax.plot(xd, centre[k] * scale, color="C1", label="fitted model")
+            ax.errorbar(x_all[idx], values * scale, yerr=sigma * scale, fmt="o", ms=3, color="C0", label="data")
+            ax.set_xlabel(label)
+            ax.set_ylabel(_LABEL[name])
+            ax.grid(alpha=0.3)
+        axes[0].legend()
+        fig.suptitle(Path(rows.path).name)
+        path = out / f"fit_{i}_{Path(rows.path).stem}.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        written.append(path)
+
+    evaluated = evaluate(cal.problem, jnp.asarray(cal.least_squares.estimate))
+    fig, axes = plt.subplots(len(cal.rows), 1, figsize=(8, 2.6 * len(cal.rows)), squeeze=False,
+                             constrained_layout=True)
+    for i, rows in enumerate(cal.rows):
+        ax = axes[i, 0]
+        label, xs = _AXIS[rows.sweep_variable]
+        for k, name in enumerate(OBSERVABLES):
+            idx = rows.used(name)
+            model, sigma = (np.asarray(a)[idx] for a in evaluated[i][k])
+            r = (model - rows.data[name][0][idx]) / sigma
+            ax.plot(np.asarray(rows.sweep.values)[idx] * xs, r, "o", ms=3, label=name)
+        for level in (-2, -1, 1, 2):
+            ax.axhline(level, color="grey", lw=0.6, ls=":" if abs(level) == 2 else "--")
+        ax.axhline(0, color="k", lw=0.6)
+        ax.set_xlabel(label)
+        ax.set_ylabel("(model - data) / sigma")
+        ax.set_title(Path(rows.path).name, fontsize=9)
+        ax.legend(fontsize=8)
+    path = out / "residuals.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    written.append(path)
+
+    if cal.posterior is not None and len(cal.posterior.samples) > len(cal.posterior.names):
+        import corner
+
+        fig = corner.corner(cal.posterior.samples, labels=[n.split(".")[1] for n in cal.posterior.names],
+                            truths=cal.least_squares.estimate, quantiles=[0.16, 0.5, 0.84], show_titles=True,
+                            title_fmt=".4g", title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 8})
+        fig.set_size_inches(3.2 * len(cal.posterior.names), 3.2 * len(cal.posterior.names))
+        path = out / "corner.png"
+        fig.savefig(path, dpi=100)
+        plt.close(fig)
+        written.append(path)
+    return written
+
+
+def _report(cal: Calibration, figures: list[str]) -> str:
+    ls, post = cal.least_squares, cal.posterior
+    lines = ["# Calibration report", "", f"tofjax {tj.__version__}, {utc_now()}", "", "## Data", ""]
+    for r in cal.rows:
+        used = ", ".join(f"{len(r.used(n))} {n}" for n in OBSERVABLES)
+        lines.append(f"- `{r.path}`: {r.sweep_variable} sweep, {r.n_rows} rows; residuals: {used}; left out: "
+                     f"{r.excluded['saturated']} saturated, {r.excluded['low_snr']} below the SNR limit")
+    lines += ["", "## Least squares (Levenberg-Marquardt)", "",
+              f"{'converged' if ls.converged else 'NOT CONVERGED'} after {ls.steps} steps; chi^2 = {ls.chi2:.2f} for "
+              f"{ls.dof} degrees of freedom (chi^2/dof = {ls.chi2_per_dof:.3f}); condition number "
+              f"{ls.condition_number:.3g}", "",
+              "| parameter | unit | initial | estimate | sigma |", "|---|---|---|---|---|"]
+    for n, u, i, e, s in zip(ls.names, ls.units, ls.initial, ls.estimate, ls.sigma, strict=True):
+        lines.append(f"| {n} | {u} | {i:.6g} | {e:.6g} | {s:.3g} |")
+    if ls.degeneracies:
+        lines += ["", "**What the data cannot separate:**", ""] + [f"- {m}" for m in ls.degeneracies]
+    lines += ["", "Correlation matrix:", "", "| | " + " | ".join(n.split(".")[1] for n in ls.names) + " |",
+              "|---" * (len(ls.names) + 1) + "|"]
+    for n, row in zip(ls.names, ls.correlation, strict=True):
+        lines.append(f"| {n.split('.')[1]} | " + " | ".join(f"{x:+.3f}" for x in row) + " |")
+    lines += ["", "Residuals (whitened):", ""]
+    for s in ls.residual_summary:
+        lines.append(f"- {Path(s['file']).name} {s['observable']}: {s['rows']} rows, rms {s['rms']:.2f}, "
+                     f"mean {s['mean']:+.2f}, max |r| {s['max_abs']:.2f}")
+    if post is not None:
+        lines += ["", "## Posterior (emcee)", "",
+                  f"{post.walkers} walkers x {post.steps} steps, burn-in {post.burn_in}, thin {post.thin}, "
+                  f"{len(post.samples)} samples; acceptance {post.acceptance_fraction:.2f}", "",
+                  "| parameter | median | 16 % | 84 % | autocorrelation time [steps] |", "|---|---|---|---|---|"]
+        for n, m, lo, hi, t in zip(post.names, post.median, post.p16, post.p84, post.autocorr_time, strict=True):
+            lines.append(f"| {n} | {m:.6g} | {lo:.6g} | {hi:.6g} | {t:.1f} |")
+        lines += [f"- warning: {w}" for w in post.warnings]
+    lines += ["", "## Figures", ""] + [f"![{f}]({f})" for f in figures]
+    lines += ["", "`calibrated.toml` is the input configuration with the least-squares estimates; use it with "
+              "`tofjax simulate --config calibrated.toml`.", ""]
+    return "\n".join(lines)

@@ -1,0 +1,112 @@
+"""``tofjax calibrate``: registered with the ``tofjax`` command through the ``tofjax.commands``
+entry point (see :mod:`tofjax.cli`)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import warnings
+from pathlib import Path
+
+
+def _pair(text: str) -> tuple[str, tuple[float, float]]:
+    name, sep, rest = text.partition("=")
+    lo, colon, hi = rest.partition(":")
+    try:
+        values = (float(lo), float(hi))
+    except ValueError:
+        values = (math.nan, math.nan)
+    if not sep or not colon or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"{text!r} is not NAME=A:B with two numbers")
+    return name.strip(), values
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} is out of range: allowed integer >= 1")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"{value} is out of range: allowed value > 0")
+    return value
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "calibrate", help="fit sensor parameters to measured sweeps (least squares, optional emcee posterior)",
+        description="Fit configuration parameters to the amplitude and depth-noise rows of tofjax-sweep files by "
+                    "Levenberg-Marquardt least squares, optionally followed by emcee posterior sampling. Writes "
+                    "calibrated.toml (usable by tofjax simulate), calibration.json, figures and report.md.")
+    p.add_argument("sweeps", nargs="+", type=Path, metavar="SWEEP.csv", help="tofjax-sweep files")
+    p.add_argument("--config", type=Path, help="camera configuration TOML (default: built-in defaults)")
+    p.add_argument("--fit", required=True, help="comma-separated dotted names, e.g. "
+                   "pixel.demodulation_contrast,pixel.photo_responsivity_a_per_w")
+    p.add_argument("--bounds", type=_pair, action="append", default=[], metavar="NAME=LO:HI",
+                   help="bounds of a fitted parameter (default: its configuration range); repeatable")
+    p.add_argument("--prior", type=_pair, action="append", default=[], metavar="NAME=MEAN:SIGMA",
+                   help="Gaussian prior of a fitted parameter for --mcmc (default: uniform within bounds)")
+    p.add_argument("--relative-error", type=_positive_float,
+                   help="use this fraction of each value as its uncertainty instead of deriving it from n_frames")
+    p.add_argument("--min-snr", type=_positive_float, default=5.0,
+                   help="leave out rows whose amplitude mean/std is below this (default 5)")
+    p.add_argument("--max-steps", type=_positive_int, default=256, help="least-squares step limit (default 256)")
+    p.add_argument("--mcmc", action="store_true", help="sample the posterior with emcee after the least squares")
+    p.add_argument("--walkers", type=_positive_int, default=32, help="emcee walkers (default 32)")
+    p.add_argument("--steps", type=_positive_int, default=2000, help="emcee steps (default 2000)")
+    p.add_argument("--backend", type=Path, help="HDF5 file for the chain (needs h5py)")
+    p.add_argument("--resume", action="store_true", help="continue the chain stored in --backend")
+    p.add_argument("--seed", type=int, default=0, help="random seed of the sampler (default 0)")
+    p.add_argument("--out", type=Path, required=True, help="output directory")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    import tofjax as tj
+    from tofjax.cli import CommandError
+
+    from ._calibrate import calibrate
+    from ._least_squares import ConvergenceError
+    from ._posterior import ShortChainWarning
+
+    config = tj.load_config(args.config) if args.config else tj.Config()
+    names = [n.strip() for n in args.fit.split(",") if n.strip()]
+    try:
+        with warnings.catch_warnings():  # a short chain is reported below as a "warning:" line
+            warnings.simplefilter("ignore", ShortChainWarning)
+            cal = calibrate(args.sweeps, config, fit=names, bounds=dict(args.bounds), priors=dict(args.prior),
+                            relative_error=args.relative_error, min_snr=args.min_snr, mcmc=args.mcmc,
+                            walkers=args.walkers, steps=args.steps, seed=args.seed, backend=args.backend,
+                            resume=args.resume, progress=args.mcmc, max_steps=args.max_steps)
+    except ConvergenceError as err:
+        raise CommandError(str(err), 1) from None
+    try:
+        written = cal.write(args.out)
+    except OSError as err:
+        raise CommandError(f"cannot write {args.out}: {err.strerror or err}", 2) from None
+    ls = cal.least_squares
+    width = max(len(n) for n in ls.names)
+    print(f"least squares: converged in {ls.steps} steps, chi^2/dof = {ls.chi2_per_dof:.3f} ({ls.dof} dof)")
+    for n, u, e, s in zip(ls.names, ls.units, ls.estimate, ls.sigma, strict=True):
+        line = f"  {n:<{width}} = {e:.6g} +- {s:.3g} {u}"
+        if cal.posterior is not None:
+            k = cal.posterior.names.index(n)
+            post = cal.posterior
+            line += f"   posterior {post.median[k]:.6g} [{post.p16[k]:.6g}, {post.p84[k]:.6g}]"
+        print(line)
+    for message in ls.degeneracies:
+        print(f"note: {message}")
+    if cal.posterior is not None:
+        for message in cal.posterior.warnings:
+            print(f"warning: {message}")
+    print(f"wrote {len(written)} files to {args.out}: " + ", ".join(p.name for p in written))
+    return 0

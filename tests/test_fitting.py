@@ -1,0 +1,255 @@
+"""Calibration: inputs and their errors, parameter recovery, degeneracy reports, posterior, CLI.
+
+The problem structures are kept few (compilation dominates): one three-file problem (the example
+data set) serves the recovery, posterior and CLI tests.
+"""
+
+import json
+import math
+import shutil
+from pathlib import Path
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import fitting as ft
+import tofjax as tj
+from tofjax import sweepfile as sf
+from tofjax.cli import main
+
+EXAMPLES = Path(ft.__file__).parent / "examples"
+FILES = [EXAMPLES / f"{n}.csv" for n in ("distance", "integration_time", "illuminance")]
+TRUE = {"pixel.demodulation_contrast": 0.38, "pixel.photo_responsivity_a_per_w": 0.25,
+        "pixel.dark_slope_mean_v_per_s": 2.0}
+NAMES = list(TRUE)
+
+
+@pytest.fixture(scope="module")
+def config():
+    return tj.load_config(EXAMPLES / "camera.toml")
+
+
+@pytest.fixture(scope="module")
+def example_fit(config):
+    return ft.calibrate(FILES, config, fit=NAMES)
+
+
+def test_example_files_are_labelled_as_simulated():
+    for path in FILES:
+        meta = sf.read_sweep(path).metadata
+        assert meta["source"] == "simulation" and "not a measurement" in meta["note"]
+        assert float(meta["true.pixel.demodulation_contrast"]) == 0.38
+
+
+def test_recovers_the_true_parameters_within_three_sigma(example_fit):
+    ls = example_fit.least_squares
+    assert ls.converged and ls.dof == ls.chi2 / ls.chi2_per_dof
+    for name, value, estimate, sigma in zip(ls.names, TRUE.values(), ls.estimate, ls.sigma, strict=True):
+        assert abs(estimate - value) < 3 * sigma, (name, estimate, sigma)
+    assert 0.7 < ls.chi2_per_dof < 1.4
+    # the data really moved the parameters away from the configuration's starting values
+    assert abs(ls.estimate[0] - 0.42) > 2 * ls.sigma[0]
+
+
+def test_transforms_are_bijective_and_never_clip():
+    p = ft.make_parameters(["pixel.demodulation_contrast"], {"pixel.demodulation_contrast": 0.42})[0]
+    assert (p.lower, p.upper) == (0.0, 1.0)
+    for theta in (1e-9, 0.3, 0.999999):
+        assert float(p.to_constrained(p.to_unconstrained(theta))) == pytest.approx(theta, rel=1e-9)
+    assert 0 < float(p.to_constrained(jnp.asarray(-40.0))) < float(p.to_constrained(jnp.asarray(40.0))) <= 1
+    # log-Jacobian matches the derivative of the transform
+    u = 0.7
+    h = 1e-6
+    d = (float(p.to_constrained(u + h)) - float(p.to_constrained(u - h))) / (2 * h)
+    assert float(p.log_abs_jacobian(jnp.asarray(u))) == pytest.approx(math.log(d), rel=1e-7)
+
+
+@pytest.mark.parametrize(
+    "kwargs, pattern",
+    [
+        ({"fit": ["pixel.contrast"]}, r"unknown parameter 'pixel.contrast' \(did you mean"),
+        ({"fit": ["scene.distance_m"]}, "operating-point column"),
+        ({"fit": ["pixel.demodulation_contrast"], "bounds": {"pixel.demodulation_contrast": (0.6, 0.2)}},
+         "bounds of pixel.demodulation_contrast are reversed"),
+        ({"fit": ["pixel.demodulation_contrast"], "bounds": {"pixel.demodulation_contrast": (0.5, 0.9)}},
+         r"initial value of pixel.demodulation_contrast = 0.42 is not strictly inside its bounds \[0.5, 0.9\]"),
+        ({"fit": ["pixel.demodulation_contrast"], "bounds": {"pixel.demodulation_contrast": (0.1, 1.5)}},
+         "upper bound of pixel.demodulation_contrast = 1.5 is outside the physical range"),
+        ({"fit": ["camera.k_lens"], "priors": {"pixel.demodulation_contrast": (0.4, 0.1)}}, "which is not fitted"),
+        ({"fit": []}, "no parameter to fit"),
+    ],
+)
+def test_bad_parameter_specifications(kwargs, pattern):
+    with pytest.raises(ft.CalibrationInputError, match=pattern):
+        ft.calibrate(FILES[:1], **kwargs)
+
+
+def _edit(tmp_path, source, replace=None, drop_meta=None, name="edited.csv"):
+    text = Path(source).read_text()
+    if replace:
+        text = text.replace(*replace)
+    if drop_meta:
+        text = "\n".join(line for line in text.splitlines() if not line.startswith(f"# {drop_meta}:")) + "\n"
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_mismatched_files_and_bad_cells_name_file_line_and_column(tmp_path, config):
+    f_mod = _edit(tmp_path, FILES[0], ("# modulation_frequency_hz: 80320000.0", "# modulation_frequency_hz: 60240000.0"))
+    with pytest.raises(ft.CalibrationInputError, match=r"edited.csv: modulation_frequency_hz = 60240000.0 in the "
+                                                       r"file, but the configuration has"):
+        ft.calibrate([f_mod], config, fit=NAMES)
+    phases = _edit(tmp_path, FILES[0], ("# n_phases: 4", "# n_phases: 3"))
+    with pytest.raises(ft.CalibrationInputError, match="n_phases = 3 in the file"):
+        ft.calibrate([phases], config, fit=NAMES)
+    lines = FILES[0].read_text().splitlines()
+    row = next(i for i, line in enumerate(lines) if line.startswith("0.5,"))
+    cells = lines[row].split(",")
+    cells[5] = "n/a"
+    lines[row] = ",".join(cells)
+    bad = tmp_path / "cell.csv"
+    bad.write_text("\n".join(lines) + "\n")
+    with pytest.raises(sf.SweepFileError, match=rf"cell.csv:{row + 1}:\d+: column depth_std_m: 'n/a' is not a finite"):
+        ft.calibrate([bad], config, fit=NAMES)
+    cells[5] = "-0.01"
+    lines[row] = ",".join(cells)
+    bad.write_text("\n".join(lines) + "\n")
+    with pytest.raises(sf.SweepFileError, match="depth_std_m = -0.01 is out of range"):
+        ft.calibrate([bad], config, fit=NAMES)
+    cells[0] = ""
+    lines[row] = ",".join(cells).replace(",-0.01,", ",0.01,")
+    bad.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ft.CalibrationInputError, match=rf"cell.csv:{row + 1}: column distance_m \(field 1\) is empty"):
+        ft.calibrate([bad], config, fit=NAMES)
+    header_only = tmp_path / "empty.csv"
+    header_only.write_text("\n".join(lines[:row]) + "\n")
+    with pytest.raises(sf.SweepFileError, match="no data rows"):
+        ft.calibrate([header_only], config, fit=NAMES)
+    missing = _edit(tmp_path, FILES[0], ("amplitude_std_lsb,valid_fraction", "amplitude_sd,valid_fraction"))
+    with pytest.raises(sf.SweepFileError, match="missing required column"):
+        ft.calibrate([missing], config, fit=NAMES)
+
+
+def test_empty_cells_mean_not_measured(tmp_path, config):
+    """A file with only depth noise is valid: its amplitude rows contribute no residual."""
+    data = sf.read_sweep(FILES[1])
+    cols = dict(data.columns)
+    cols["amplitude_mean_lsb"] = np.full(data.n_rows, np.nan)
+    cols["amplitude_std_lsb"] = np.full(data.n_rows, np.nan)
+    meta = {k: v for k, v in data.metadata.items() if k != "format"}
+    sf.write_sweep(tmp_path / "noise_only.csv", meta, cols)
+    rows = ft.load_rows(tmp_path / "noise_only.csv", config)
+    assert len(rows.used("amplitude_mean_lsb")) == 0 and len(rows.used("depth_std_m")) > 20
+
+
+def test_rows_left_out_are_counted(config):
+    rows = ft.load_rows(FILES[0], config)
+    assert rows.excluded["low_snr"] > 0  # far rows of the distance sweep
+    assert len(rows.used("depth_std_m")) + rows.excluded["low_snr"] + rows.excluded["saturated"] == rows.n_rows
+    strict = ft.load_rows(FILES[0], config, min_snr=50.0)
+    assert len(strict.used("depth_std_m")) < len(rows.used("depth_std_m"))
+
+
+def test_analytic_files_need_a_relative_error(tmp_path, config):
+    out = tmp_path / "analytic.csv"
+    assert main(["simulate", "--sweep", "distance", "--method", "analytic", "--samples", "5", "--out", str(out)]) == 0
+    with pytest.raises(ft.CalibrationInputError, match="n_frames = 0: uncertainties need at least 2 frames"):
+        ft.load_rows(out, config)
+    rows = ft.load_rows(out, config, relative_error=0.02)
+    assert len(rows.used("depth_std_m")) + rows.excluded["low_snr"] == 5 and len(rows.used("depth_std_m")) >= 3
+
+
+def test_responsivity_and_lens_loss_degeneracy_is_reported(config):
+    cal = ft.calibrate(FILES, config, fit=["pixel.photo_responsivity_a_per_w", "camera.k_lens"])
+    notes = " ".join(cal.least_squares.degeneracies)
+    assert "pixel.photo_responsivity_a_per_w and camera.k_lens cannot be separated" in notes
+    assert "product" in notes
+    assert np.all(np.isinf(cal.least_squares.sigma))
+    product = cal.least_squares.estimate[0] * cal.least_squares.estimate[1]
+    # The amplitude fixes contrast x responsivity x k_lens; contrast stays at the configured 0.42.
+    assert product == pytest.approx(0.38 * 0.25 * 0.9 / 0.42, rel=0.05)
+
+
+def test_posterior_agrees_with_least_squares(example_fit):
+    with pytest.warns(ft.ShortChainWarning):
+        post = ft.sample_posterior(example_fit.problem, example_fit.least_squares, walkers=16, steps=400, seed=3,
+                                   progress=False)
+    ratio = post.std / example_fit.least_squares.sigma
+    assert np.all((ratio > 0.7) & (ratio < 1.3)), ratio
+    # medians need not equal the least-squares point (skew, sigma(theta) normalisation) but stay close
+    assert np.all(np.abs(post.median - example_fit.least_squares.estimate) < example_fit.least_squares.sigma)
+    assert 0.2 < post.acceptance_fraction < 0.8
+    with pytest.raises(ValueError, match="walkers = 5 is out of range: allowed an even number >= 6"):
+        ft.sample_posterior(example_fit.problem, example_fit.least_squares, walkers=5, steps=10)
+
+
+def test_posterior_backend_resumes(example_fit, tmp_path):
+    path = tmp_path / "chain.h5"
+    with pytest.warns(ft.ShortChainWarning):
+        first = ft.sample_posterior(example_fit.problem, example_fit.least_squares, walkers=8, steps=30,
+                                    backend_path=path, progress=False)
+        more = ft.sample_posterior(example_fit.problem, example_fit.least_squares, walkers=8, steps=20,
+                                   backend_path=path, resume=True, progress=False)
+    assert (first.steps, more.steps) == (30, 50)
+
+
+def test_unconverged_fit_is_never_silent(config):
+    with pytest.raises(ft.ConvergenceError, match="did not converge after 2 steps"):
+        ft.calibrate(FILES, config, fit=NAMES, max_steps=2)
+
+
+def test_calibrate_command_writes_everything(tmp_path, capsys):
+    out = tmp_path / "cal"
+    code = main(["calibrate", *map(str, FILES), "--config", str(EXAMPLES / "camera.toml"), "--fit", ",".join(NAMES),
+                 "--mcmc", "--walkers", "8", "--steps", "60", "--out", str(out)])
+    assert code == 0
+    printed = capsys.readouterr().out
+    assert "least squares: converged" in printed and "pixel.demodulation_contrast" in printed
+    names = {p.name for p in out.iterdir()}
+    assert {"calibrated.toml", "calibration.json", "residuals.png", "corner.png", "report.md"} <= names
+    assert sum(n.startswith("fit_") for n in names) == 3
+    result = json.loads((out / "calibration.json").read_text())
+    assert result["least_squares"]["converged"] and result["posterior"]["walkers"] == 8
+    assert set(result["least_squares"]["parameters"]) == set(NAMES)
+    calibrated = tj.load_config(out / "calibrated.toml")
+    for name in NAMES:
+        section, key = name.split(".")
+        assert calibrated.values[section][key] == pytest.approx(result["least_squares"]["parameters"][name]["estimate"])
+    sim = tmp_path / "sim.csv"
+    assert main(["simulate", "--config", str(out / "calibrated.toml"), "--sweep", "distance", "--method", "analytic",
+                 "--samples", "4", "--out", str(sim)]) == 0
+
+
+@pytest.mark.parametrize(
+    "args, pattern",
+    [
+        (["--fit", "pixel.nope"], "unknown parameter 'pixel.nope'"),
+        (["--fit", "pixel.demodulation_contrast", "--bounds", "pixel.demodulation_contrast=0.9"],
+         "argument --bounds: 'pixel.demodulation_contrast=0.9' is not NAME=A:B"),
+    ],
+)
+def test_calibrate_command_errors(tmp_path, capsys, args, pattern):
+    try:
+        code = main(["calibrate", str(FILES[0]), "--out", str(tmp_path / "x"), *args])
+    except SystemExit as exc:
+        code = exc.code
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "tofjax: error:" in err and "Traceback" not in err and pattern in err
+
+
+def test_example_generator_reproduces_the_shipped_files(tmp_path, monkeypatch):
+    """The example data set is exactly what make_examples.py makes (reproducible, seed 2026)."""
+    import fitting.examples.make_examples as mk
+
+    for name in ("camera.toml",):
+        shutil.copy(EXAMPLES / name, tmp_path / name)
+    monkeypatch.setattr(mk, "HERE", tmp_path)
+    mk.main()
+    for path in FILES:
+        new = sf.read_sweep(tmp_path / path.name)
+        old = sf.read_sweep(path)
+        for column, values in old.columns.items():
+            np.testing.assert_array_equal(new.columns[column], values)
