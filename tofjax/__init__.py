@@ -18,7 +18,14 @@ from ._config import (  # noqa: E402
     default_config_text as default_config_text,
     load_config as load_config,
 )
+from ._estimate import cw_depth_noise as cw_depth_noise, pulsed_depth_noise as pulsed_depth_noise  # noqa: E402
 from ._model import Smooth as Smooth, predict as predict, simulate as simulate  # noqa: E402
+from ._multifrequency import (  # noqa: E402
+    MultiFrequencyResult as MultiFrequencyResult,
+    extended_range_m as extended_range_m,
+    simulate_multifrequency as simulate_multifrequency,
+    unwrap_frequencies as unwrap_frequencies,
+)
 from ._optics import lens as lens, spot_area_m2 as spot_area_m2  # noqa: E402
 from ._params import (  # noqa: E402
     ADC as ADC,

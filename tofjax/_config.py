@@ -46,6 +46,12 @@ class Config:
         return Params(**parts)
 
     @property
+    def modulation_frequencies_hz(self) -> list[float]:
+        """The modulation frequency followed by any extra ones (range extension, §2.2)."""
+        w = self.values["illumination_waveform"]
+        return [w["modulation_frequency_hz"], *w["extra_modulation_frequencies_hz"]]
+
+    @property
     def iterations(self) -> int:
         """Monte Carlo frames per sample (``pixel.iterations``)."""
         return self.values["pixel"]["iterations"]

@@ -75,6 +75,8 @@ class Key:
             text = "[x, y] with each " + text
         elif self.kind == "angle":
             text = "a number (diagonal, circular) or [horizontal, vertical], each " + text
+        elif self.kind == "float_list":
+            text = "a list of numbers, each " + text
         return text
 
 
@@ -151,6 +153,8 @@ KEYS: tuple[Key, ...] = (
     _k("illumination_waveform", "fourier_order", "int", 5, "1", "harmonics in the fourier shape", 1, 200),
     _k("illumination_waveform", "modulation_frequency_hz", "float", 80.32e6, "Hz", "modulation frequency",
        0.0, 5e9, lo_open=True),
+    _k("illumination_waveform", "extra_modulation_frequencies_hz", "float_list", [], "Hz",
+       "further frequencies for range extension (e.g. [60.24e6]; empty = one frequency)", 0.0, 5e9, lo_open=True),
     # --- [reference_waveform]  thesis Table 4.7
     _k("reference_waveform", "shape", "choice", "gauss_extended", "-", "pixel demodulation (reference) waveform",
        choices=WAVEFORM_SHAPES),
@@ -240,6 +244,12 @@ def coerce(key: Key, value: Any, where: str = "") -> Any:
             raise ConfigError(bad_type)
         value = float(value)
         elements = [value]
+    elif key.kind == "float_list":
+        if not isinstance(value, (list, tuple)) or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+            raise ConfigError(bad_type)
+        value = [float(v) for v in value]
+        elements = value
     else:  # pair / angle
         if key.kind == "angle" and isinstance(value, (int, float)) and not isinstance(value, bool):
             value = float(value)
@@ -349,6 +359,11 @@ def validate(raw: Mapping[str, Any], where: str = "") -> dict[str, dict[str, Any
         raise ConfigError(
             f"{loc}adc.v_ref_neg_v = {a['v_ref_neg_v']!r} must be less than adc.v_ref_pos_v = {a['v_ref_pos_v']!r}"
         )
+    w = merged["illumination_waveform"]
+    freqs = [w["modulation_frequency_hz"], *w["extra_modulation_frequencies_hz"]]
+    if len(set(freqs)) != len(freqs):
+        raise ConfigError(f"{loc}illumination_waveform.extra_modulation_frequencies_hz = "
+                          f"{w['extra_modulation_frequencies_hz']!r} repeats a frequency: all must differ")
     for stem, unit in (("distance", "m"), ("illuminance", "lx"), ("integration_time", "s")):
         lo, hi = s[f"{stem}_from_{unit}"], s[f"{stem}_to_{unit}"]
         if not lo < hi:

@@ -99,7 +99,9 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--seed", type=_seed, default=0, help="random seed of the Monte Carlo (default 0)")
     sim.add_argument("--fixed-pattern", action="store_true",
                      help="draw the taps' dark slopes from the pixel population (pixel.dark_slope_sigma_v_per_s)")
-    sim.add_argument("--out", type=Path, required=True, help="output CSV (tofjax-sweep format)")
+    sim.add_argument("--out", type=Path, help="output CSV (tofjax-sweep format); default DIR/sweep.csv with --report")
+    sim.add_argument("--report", type=Path, metavar="DIR",
+                     help="also write every applicable plot as PNG and a self-contained report.html into DIR")
 
     cfg = sub.add_parser("config", help="print the full default configuration with comments",
                          description="Print the full default TOML configuration, a comment on every key "
@@ -133,22 +135,93 @@ def _summary(result, elapsed_s: float, out: Path) -> str:
     return "\n".join(lines)
 
 
+class _Status:
+    """A status line on stderr (elapsed seconds) for runs longer than two seconds, when stderr is a
+    terminal; the jitted sweep is one call, so it reports time rather than a fraction."""
+
+    def __init__(self, message: str):
+        self.message = message
+        self._stop = None
+
+    def __enter__(self):
+        import threading
+
+        if not sys.stderr.isatty():
+            return self
+        self._stop = threading.Event()
+        start = time.perf_counter()
+
+        def tick():
+            while not self._stop.wait(0.5):
+                elapsed = time.perf_counter() - start
+                if elapsed > 2.0:
+                    sys.stderr.write(f"\r{self.message} ... {elapsed:.1f} s")
+                    sys.stderr.flush()
+
+        self._thread = threading.Thread(target=tick, daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        if self._stop is not None:
+            self._stop.set()
+            self._thread.join()
+            sys.stderr.write("\r" + " " * (len(self.message) + 16) + "\r")
+            sys.stderr.flush()
+
+
+def _multifrequency_columns(mf) -> dict:
+    primary = jax_get(mf.per_frequency)
+    cols = {
+        "distance_m": primary.distance_m[0], "integration_time_s": primary.integration_time_s[0],
+        "illuminance_lx": primary.illuminance_lx[0], "n_frames": np.full(primary.distance_m.shape[1],
+                                                                         float(primary.n_frames)),
+        "depth_mean_m": mf.depth_mean_m, "depth_std_m": mf.depth_std_m,
+        "amplitude_mean_lsb": primary.amplitude_mean_lsb[0], "amplitude_std_lsb": primary.amplitude_std_lsb[0],
+        "valid_fraction": mf.valid_fraction, "wrong_unwrap_fraction": mf.wrong_unwrap_fraction,
+    }
+    for i in range(primary.depth_std_m.shape[0]):
+        cols[f"depth_std_m_f{i + 1}"] = primary.depth_std_m[i]
+    return {k: np.asarray(v, dtype=float) for k, v in cols.items()}
+
+
+def jax_get(tree):
+    import jax
+
+    return jax.device_get(tree)
+
+
 def _simulate(args) -> int:
     import jax
 
     from ._model import predict, simulate
+    from ._multifrequency import simulate_multifrequency
     from .sweepfile import columns_from_result, utc_now, write_sweep
 
+    if args.out is None and args.report is None:
+        raise _UsageError("give --out FILE.csv, --report DIR, or both")
+    out = args.out if args.out is not None else args.report / "sweep.csv"
     config = load_config(args.config) if args.config else Config()
     sweep = config.sweep(args.sweep, args.start, args.stop, args.samples)
     params = config.params
     iterations = args.iterations or config.iterations
+    freqs = config.modulation_frequencies_hz
+    multi = None
+    if len(freqs) > 1 and args.method != "mc":
+        raise _UsageError("several modulation frequencies (illumination_waveform.extra_modulation_frequencies_hz) "
+                          "need --method mc")
+    label = f"simulating {sweep.samples} samples" + (f" x {iterations} frames" if args.method == "mc" else "")
     t0 = time.perf_counter()
-    if args.method == "mc":
-        result = simulate(params, sweep, jax.random.key(args.seed), iterations, fixed_pattern=args.fixed_pattern)
-    else:
-        result = predict(params, sweep)
-    result = jax.device_get(result)
+    with _Status(label):
+        if len(freqs) > 1:
+            multi = jax.device_get(simulate_multifrequency(params, sweep, jax.random.key(args.seed), iterations,
+                                                           freqs))
+            result = jax.tree_util.tree_map(lambda x: x[0], multi.per_frequency)
+        elif args.method == "mc":
+            result = simulate(params, sweep, jax.random.key(args.seed), iterations, fixed_pattern=args.fixed_pattern)
+        else:
+            result = predict(params, sweep)
+        result = jax.device_get(result)
     elapsed = time.perf_counter() - t0
     metadata = {
         "sweep": args.sweep, "source": "simulation", "method": args.method,
@@ -159,11 +232,26 @@ def _simulate(args) -> int:
         "config_file": str(args.config) if args.config else "(built-in defaults)",
         "config_json": json.dumps(config.values, separators=(",", ":")),
     }
+    if multi is not None:
+        metadata["modulation_frequencies_hz"] = ",".join(repr(float(f)) for f in freqs)
+        metadata["extended_range_m"] = repr(float(multi.extended_range_m))
     try:
-        write_sweep(args.out, metadata, columns_from_result(result))
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_sweep(out, metadata, _multifrequency_columns(multi) if multi is not None else columns_from_result(result))
     except OSError as err:
-        raise _UsageError(f"cannot write {args.out}: {err.strerror or err}") from None
-    print(_summary(result, elapsed, args.out))
+        raise _UsageError(f"cannot write {out}: {err.strerror or err}") from None
+    print(_summary(result, elapsed, out))
+    if multi is not None:
+        wrong = np.asarray(multi.wrong_unwrap_fraction)
+        print(f"{len(freqs)} frequencies: extended range {float(multi.extended_range_m):.4f} m; combined depth std "
+              f"{1e3 * np.nanmin(multi.depth_std_m):.3g}-{1e3 * np.nanmax(multi.depth_std_m):.3g} mm; wrong unwraps "
+              f"up to {100 * np.nanmax(wrong):.1f} % of valid frames")
+    if args.report is not None:
+        from .report import write_report
+
+        with _Status("writing the report"):
+            path = write_report(args.report, config, result, elapsed, out, multifrequency=multi)
+        print(f"report: {path}")
     return 0
 
 

@@ -1,0 +1,269 @@
+"""The thesis' plots (Table 4.9, §3.3.4, §4.2.17, Figs 3.3, 4.2, 5.2-5.18) from simulation results.
+
+Each function takes a result (and optionally an existing matplotlib ``Axes``) and returns the
+``Figure``; axes carry units. Figures are built with ``matplotlib.figure.Figure`` directly, so
+nothing here needs a display or pyplot. :data:`PLOTS` lists which plots apply to which sweep
+(distance-only ones as Table 4.9 says).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.figure import Figure
+
+_AXES = {"distance": ("distance [m]", 1.0), "illuminance": ("background illuminance [lx]", 1.0),
+         "integration_time": ("integration time [ms]", 1e3)}
+
+
+def _axes(ax, ncols: int = 1, size=(6.4, 4.2)):
+    if ax is not None:
+        return ax.figure, ax
+    fig = Figure(figsize=size, layout="constrained")
+    return fig, fig.add_subplot(1, ncols, 1)
+
+
+def _x(result):
+    label, scale = _AXES[result.sweep_variable]
+    return np.asarray(result.sweep_values) * scale, label
+
+
+def waveforms(params, ax=None) -> Figure:
+    """Illumination and reference waveforms over one period (Fig 4.2), in optical power units."""
+    from ._waveforms import waveform
+
+    fig, ax = _axes(ax)
+    t = np.linspace(-0.5, 0.5, 2001)
+    peak = float(params.illumination.peak_power_w)
+    ax.plot(t, peak * np.asarray(waveform(params.illumination_waveform, t)),
+            label=f"illumination ({params.illumination_waveform.shape}, "
+                  f"{100 * float(params.illumination_waveform.duty_cycle):g} %)")
+    ax.plot(t, peak * np.asarray(waveform(params.reference_waveform, t)), "--",
+            label=f"reference ({params.reference_waveform.shape}, {100 * float(params.reference_waveform.duty_cycle):g} %)"
+                  " [x peak power]")
+    ax.set_xlabel("time [periods]")
+    ax.set_ylabel("optical power [W]")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def fov_footprint(params, distance_m: float | None = None, ax=None) -> Figure:
+    """The illumination cone from the point source and the lit spot at ``distance_m`` (Fig 3.3)."""
+    from ._optics import spot_area_m2
+
+    d = float(params.scene.distance_m) if distance_m is None else float(distance_m)
+    fov = np.atleast_1d(np.asarray(params.illumination.fov_deg, dtype=float))
+    if ax is None:
+        fig = Figure(figsize=(10, 4.2), layout="constrained")
+        side, top = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
+    else:
+        fig, side, top = ax.figure, ax, None
+    half = d * np.tan(np.deg2rad(fov) / 2.0)
+    r = half[0]
+    side.fill([0, d, d], [0, r, -r], alpha=0.25, color="C1")
+    side.plot([0, d, d, 0], [0, r, -r, 0], color="C1")
+    side.plot([0], [0], "ko")
+    side.set_xlabel("distance [m]")
+    side.set_ylabel("height [m]")
+    side.set_title(f"FoV {'x'.join(f'{f:g}' for f in fov)} deg, spot area "
+                   f"{float(spot_area_m2(params.illumination, d)):.3g} m^2 at {d:g} m", fontsize=9)
+    side.set_aspect("equal")
+    if top is not None:
+        if fov.size == 1:
+            a = np.linspace(0, 2 * np.pi, 200)
+            top.fill(r * np.cos(a), r * np.sin(a), alpha=0.25, color="C1")
+        else:
+            top.fill([-half[0], half[0], half[0], -half[0]], [-half[1], -half[1], half[1], half[1]], alpha=0.25,
+                     color="C1")
+        top.plot([0], [0], "k+")
+        top.set_aspect("equal")
+        top.set_xlabel("x [m]")
+        top.set_ylabel("y [m]")
+        top.set_title("lit spot on the target (circular: diagonal FoV; rectangular: [h, v])", fontsize=9)
+    return fig
+
+
+def cross_correlation(result, ax=None) -> Figure:
+    """Differential voltage V_B - V_A of every phase image over the sweep (CC, Figs 5.3/5.4)."""
+    from ._waveforms import phase_steps
+
+    fig, ax = _axes(ax)
+    x, label = _x(result)
+    theta = np.degrees(phase_steps(result.differential_v.shape[-1]))
+    for j, th in enumerate(theta):
+        ax.plot(x, np.asarray(result.differential_v)[:, j], label=f"{th:g} deg")
+    ax.set_xlabel(label)
+    ax.set_ylabel("integrated differential voltage [V]")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def tap_voltages(result, params, phase: int = 0, ax=None) -> Figure:
+    """Tap voltages A and B of one phase image with the SBI threshold and V_reset (Figs 5.2, 5.15a)."""
+    fig, ax = _axes(ax)
+    x, label = _x(result)
+    ax.plot(x, np.asarray(result.tap_a_v)[:, phase], label="V_A")
+    ax.plot(x, np.asarray(result.tap_b_v)[:, phase], label="V_B")
+    ax.axhline(float(params.pixel.v_reset_v), color="k", ls="--", lw=0.8, label="V_reset")
+    ax.axhline(float(params.pixel.v_saturated_v), color="r", ls="--", lw=0.8, label="V_saturated (SBI threshold)")
+    ax.set_xlabel(label)
+    ax.set_ylabel("tap voltage at the end of the exposure [V]")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def photon_transfer_curve(result, ax=None) -> Figure:
+    """Noise electrons of each source over the light-generated electrons, log-log (Figs 5.12a, 5.14a,
+    5.17a); the x axis counts signal and background photo-electrons of one phase image."""
+    fig, ax = _axes(ax)
+    n = result.noise
+    x = np.asarray(n.signal_e) + np.asarray(n.background_e)
+    order = np.argsort(x)
+    for values, name, style in [(n.signal_e, "signal", "k-"), (n.total_e, "total noise", "C2-"),
+                                (n.photon_shot_e, "photon shot noise", "C4-"), (n.read_e, "read noise", "C1-"),
+                                (n.reset_e, "reset noise", "C0:"), (n.hold_e, "hold noise", "C5:"),
+                                (n.dark_shot_e, "dark shot noise", "C7:"), (n.quantization_e, "quantisation", "C8:")]:
+        y = np.asarray(values)[order]
+        if np.all(y > 0):
+            ax.loglog(x[order], y, style, label=name)
+    ax.set_xlabel("photo-electrons per phase image (signal + background)")
+    ax.set_ylabel("electrons")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, which="both")
+    return fig
+
+
+def snr(result, ax=None) -> Figure:
+    """SNR = 20 log10(signal / total noise) in dB (Eq 5.1; Figs 5.12b, 5.14b, 5.17b)."""
+    fig, ax = _axes(ax)
+    x, label = _x(result)
+    ax.plot(x, np.asarray(result.snr_db))
+    ax.set_xlabel(label)
+    ax.set_ylabel("SNR [dB]")
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def amplitude(result, ax=None) -> Figure:
+    """Amplitude in LSB (Figs 5.11a, 5.16a)."""
+    fig, ax = _axes(ax)
+    x, label = _x(result)
+    ax.plot(x, np.asarray(result.amplitude_mean_lsb))
+    ax.set_xlabel(label)
+    ax.set_ylabel("amplitude [LSB]")
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def depth_noise(result, relative: bool = False, estimates: dict | None = None, ax=None) -> Figure:
+    """Depth standard deviation, absolute (mm) or relative to the distance (%) (Figs 5.7, 5.11b,
+    5.13, 5.15b, 5.16b), with optional closed-form ``estimates`` {label: array in m} (Fig 5.18)."""
+    fig, ax = _axes(ax)
+    x, label = _x(result)
+    scale = 100.0 / np.asarray(result.distance_m) if relative else 1e3
+    ax.plot(x, np.asarray(result.depth_std_m) * scale, ".", ms=3 if result.n_frames else 0,
+            ls="-" if not result.n_frames else "none", label=f"model ({result.method})")
+    for name, values in (estimates or {}).items():
+        ax.plot(x, np.asarray(values) * scale, "--", label=name)
+    ax.set_xlabel(label)
+    ax.set_ylabel("relative depth noise [%]" if relative else "depth noise [mm]")
+    if estimates:
+        ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def _frames(result, values, limit=200):
+    if values is None:
+        return None
+    v = np.asarray(values)
+    return v[:, : min(limit, v.shape[1])]
+
+
+def calculated_vs_real(result, ax=None) -> Figure:
+    """Calculated (wrapped) distance over the real one, unambiguity intervals shaded (Fig 5.6a)."""
+    fig, ax = _axes(ax)
+    d = np.asarray(result.distance_m)
+    du = float(result.unambiguity_range_m)
+    for k in range(int(np.ceil(d.max() / du)) + 1):
+        if k % 2 == 0:
+            ax.axvspan(k * du, (k + 1) * du, color="0.9")
+    frames = _frames(result, result.depth_m)
+    if frames is not None:
+        ax.plot(np.repeat(d, frames.shape[1]), frames.ravel(), ",", color="C0", alpha=0.3)
+    ax.plot(d, np.asarray(result.depth_mean_m), "C1-", lw=1, label="mean")
+    ax.set_xlim(d.min(), d.max())
+    ax.set_xlabel("real distance [m]")
+    ax.set_ylabel("calculated distance [m]")
+    ax.set_title(f"unambiguity range {du:.4f} m", fontsize=9)
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def unwrapped_vs_real(result, ax=None) -> Figure:
+    """Unwrapped calculated distance over the real one (Figs 5.6b, 5.9)."""
+    fig, ax = _axes(ax)
+    d = np.asarray(result.distance_m)
+    frames = _frames(result, result.depth_unwrapped_m, limit=20)
+    if frames is not None:
+        ax.plot(d, frames, lw=0.5, alpha=0.5)
+    ax.plot(d, np.asarray(result.depth_unwrapped_mean_m), "k-", lw=1.2, label="mean")
+    ax.plot(d, d, "k:", lw=0.8, label="ideal")
+    ax.set_xlabel("real distance [m]")
+    ax.set_ylabel("unwrapped calculated distance [m]")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def wiggling(result, ax=None) -> Figure:
+    """Mean calculated minus real distance (Figs 5.5, 5.10b)."""
+    fig, ax = _axes(ax)
+    d = np.asarray(result.distance_m)
+    ax.plot(d, 100 * (np.asarray(result.depth_unwrapped_mean_m) - d))
+    ax.set_xlabel("real distance [m]")
+    ax.set_ylabel("mean distance error [cm]")
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def multifrequency_distance(result, ax=None) -> Figure:
+    """Unwrapped distance of a multi-frequency sweep over the real one across the extended range,
+    with the wrong-unwrap fraction (§2.2, Fig 5.9)."""
+    fig, ax = _axes(ax)
+    d = np.asarray(result.distance_m)
+    frames = np.asarray(result.depth_m)[:, :200]
+    ax.plot(np.repeat(d, frames.shape[1]), frames.ravel(), ",", color="C0", alpha=0.3)
+    ax.plot(d, np.mod(d, float(result.extended_range_m)), "k:", lw=0.8, label="ideal")
+    ax.set_xlabel("real distance [m]")
+    ax.set_ylabel("unwrapped distance [m]")
+    freqs = ", ".join(f"{f / 1e6:g}" for f in np.asarray(result.frequencies_hz))
+    ax.set_title(f"{freqs} MHz: extended range {float(result.extended_range_m):.3f} m", fontsize=9)
+    twin = ax.twinx()
+    twin.plot(d, 100 * np.asarray(result.wrong_unwrap_fraction), "C3-", label="wrong unwraps")
+    twin.set_ylabel("wrong unwraps [% of valid frames]", color="C3")
+    ax.grid(alpha=0.3)
+    return fig
+
+
+#: Plot name -> (function, sweeps it applies to, thesis reference); Table 4.9.
+PLOTS = {
+    "cross_correlation": (cross_correlation, ("distance", "illuminance", "integration_time"), "CC, Figs 5.3/5.4"),
+    "photon_transfer_curve": (photon_transfer_curve, ("distance", "illuminance", "integration_time"),
+                              "PTC, Figs 5.12a/5.14a/5.17a"),
+    "snr": (snr, ("distance", "illuminance", "integration_time"), "SNR, Figs 5.12b/5.14b/5.17b"),
+    "amplitude": (amplitude, ("distance", "illuminance", "integration_time"), "Amplitudes, Figs 5.11a/5.16a"),
+    "depth_noise": (depth_noise, ("distance", "illuminance", "integration_time"), "DistNoise, Figs 5.7/5.13/5.16b"),
+    "relative_depth_noise": (lambda r, ax=None: depth_noise(r, relative=True, ax=ax),
+                             ("distance", "illuminance", "integration_time"), "Figs 5.11b/5.13/5.16b"),
+    "calculated_vs_real": (calculated_vs_real, ("distance",), "DistUnambiguity, Fig 5.6a"),
+    "unwrapped_vs_real": (unwrapped_vs_real, ("distance",), "DistRealDist, Fig 5.6b"),
+    "wiggling": (wiggling, ("distance",), "Wiggling, Fig 5.5"),
+}
+
+
+def applicable(sweep_variable: str) -> list[str]:
+    """Names of the plots of :data:`PLOTS` that apply to a sweep (Table 4.9)."""
+    return [name for name, (_, sweeps, _) in PLOTS.items() if sweep_variable in sweeps]

@@ -1,0 +1,151 @@
+"""The simulation report (``tofjax simulate --report DIR``): PNGs of every plot that applies to the
+sweep, and one self-contained ``report.html`` (images embedded) with the configuration, headline
+figures and the run's timing.
+
+Headline figures come from the analytic path (hard mode) on dedicated scans, so they do not depend
+on the chosen sweep's range: depth noise at the nominal point; the shortest distance with valid
+data (below it the pixel or the ADC saturates); the distances where the relative depth noise crosses
+1 % and 2 % (0.05-50 m); the background illuminance where SBI engages and where the pixel saturates
+(0-200 klx at the nominal distance); and, from the run itself, the dominant noise source in each
+region of the photon transfer curve.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+from pathlib import Path
+
+import numpy as np
+
+from . import plots
+from ._estimate import cw_depth_noise, pulsed_depth_noise
+from ._model import predict
+from ._sweep import Sweep
+
+_UNITS = {"distance": "m", "illuminance": "lx", "integration_time": "s"}
+
+
+def _first(x: np.ndarray, mask: np.ndarray):
+    return float(x[np.argmax(mask)]) if np.any(mask) else None
+
+
+def headlines(params, result) -> dict:
+    """The headline figures (module docstring) as a dict of plain numbers (None: not reached)."""
+    scene = params.scene
+    nominal = predict(params, Sweep("distance", [float(scene.distance_m)]))
+    out = {
+        "nominal_distance_m": float(scene.distance_m), "nominal_illuminance_lx": float(scene.illuminance_lx),
+        "nominal_integration_time_s": float(scene.integration_time_s),
+        "nominal_depth_std_m": float(nominal.depth_std_m[0]),
+        "nominal_relative_depth_std": float(nominal.depth_std_m[0] / scene.distance_m),
+        "nominal_amplitude_lsb": float(nominal.amplitude_mean_lsb[0]),
+        "unambiguity_range_m": float(params.unambiguity_range_m),
+    }
+    d = np.geomspace(0.05, 50.0, 600)
+    scan = predict(params, Sweep("distance", d))
+    valid = np.asarray(scan.valid_fraction) > 0
+    out["valid_from_m"] = _first(d, valid)
+    rel = np.asarray(scan.depth_std_m) / d
+    start = np.argmax(valid) if np.any(valid) else len(d)
+    beyond = np.arange(len(d)) >= start
+    for level in (0.01, 0.02):
+        out[f"relative_noise_{int(level * 100)}pct_at_m"] = _first(d, beyond & valid & (rel >= level))
+    lux = np.concatenate([[0.0], np.geomspace(1.0, 2e5, 500)])
+    lux_scan = predict(params, Sweep("illuminance", lux))
+    out["sbi_engages_at_lx"] = _first(lux, np.asarray(lux_scan.sbi_active_fraction) > 0) if params.pixel.sbi else None
+    out["pixel_saturates_at_lx"] = _first(lux, np.asarray(lux_scan.pixel_saturated_fraction) > 0)
+    out["dominant_noise"] = dominant_noise(result)
+    return out
+
+
+def dominant_noise(result) -> list[dict]:
+    """Contiguous ranges of the sweep where read, photon shot or quantisation noise dominates."""
+    n = result.noise
+    names = ("read noise", "photon shot noise", "quantisation noise")
+    stack = np.stack([np.asarray(n.read_e), np.asarray(n.photon_shot_e), np.asarray(n.quantization_e)])
+    winner = np.argmax(stack, axis=0)
+    x = np.asarray(result.sweep_values)
+    regions, start = [], 0
+    for i in range(1, len(x) + 1):
+        if i == len(x) or winner[i] != winner[start]:
+            regions.append({"source": names[winner[start]], "from": float(x[start]), "to": float(x[i - 1])})
+            start = i
+    return regions
+
+
+def _png(fig) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    return buf.getvalue()
+
+
+def _fmt(value, unit="", scale=1.0, digits=4):
+    return "not reached" if value is None else f"{value * scale:.{digits}g} {unit}".strip()
+
+
+def write_report(directory, config, result, elapsed_s: float, csv_path, multifrequency=None) -> Path:
+    """Write the PNGs and ``report.html`` into ``directory``; returns the HTML path."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    params = config.params
+    figures: list[tuple[str, str, bytes]] = []
+    for name in plots.applicable(result.sweep_variable):
+        func, _, ref = plots.PLOTS[name]
+        if name == "depth_noise" and result.sweep_variable == "distance":
+            sweep = Sweep("distance", result.distance_m)
+            fig = plots.depth_noise(result, estimates={"CW estimate": cw_depth_noise(params, sweep),
+                                                       "pulsed estimate": pulsed_depth_noise(params, sweep)})
+        else:
+            fig = func(result)
+        figures.append((name, ref, _png(fig)))
+    figures.append(("tap_voltages", "Figs 5.2/5.15a", _png(plots.tap_voltages(result, params))))
+    figures.append(("waveforms", "Fig 4.2", _png(plots.waveforms(params))))
+    figures.append(("fov_footprint", "Fig 3.3", _png(plots.fov_footprint(params))))
+    if multifrequency is not None:
+        figures.append(("multifrequency", "§2.2, Fig 5.9", _png(plots.multifrequency_distance(multifrequency))))
+    for name, _, data in figures:
+        (directory / f"{name}.png").write_bytes(data)
+
+    h = headlines(params, result)
+    sweep_unit = _UNITS[result.sweep_variable]
+    rows = [
+        ("depth noise at the nominal point", f"{_fmt(h['nominal_depth_std_m'], 'mm', 1e3)} "
+         f"({_fmt(h['nominal_relative_depth_std'], '%', 100)}) at {h['nominal_distance_m']:g} m, "
+         f"{h['nominal_illuminance_lx']:g} lx, {h['nominal_integration_time_s'] * 1e3:g} ms"),
+        ("amplitude at the nominal point", _fmt(h["nominal_amplitude_lsb"], "LSB")),
+        ("valid data from (short-range saturation below)", _fmt(h["valid_from_m"], "m")),
+        ("relative depth noise reaches 1 %", _fmt(h["relative_noise_1pct_at_m"], "m")),
+        ("relative depth noise reaches 2 %", _fmt(h["relative_noise_2pct_at_m"], "m")),
+        ("SBI engages at", _fmt(h["sbi_engages_at_lx"], "lx") if params.pixel.sbi else "SBI disabled"),
+        ("pixel saturates at (0-200 klx)", _fmt(h["pixel_saturates_at_lx"], "lx")),
+        ("unambiguity range", _fmt(h["unambiguity_range_m"], "m")),
+    ]
+    if multifrequency is not None:
+        rows.append(("extended range (multi-frequency)", _fmt(float(multifrequency.extended_range_m), "m")))
+    rows.append(("run time", f"{elapsed_s:.2f} s ({result.method}, {len(np.asarray(result.sweep_values))} samples"
+                             + (f" x {result.n_frames} frames)" if result.n_frames else ")")))
+    regions = "".join(f"<li>{html.escape(r['source'])}: {r['from']:.4g} - {r['to']:.4g} {sweep_unit}</li>"
+                      for r in h["dominant_noise"])
+    table = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>" for k, v in rows)
+    images = "".join(
+        f'<figure><img alt="{name}" src="data:image/png;base64,{base64.b64encode(data).decode()}">'
+        f"<figcaption>{html.escape(name)} ({html.escape(ref)})</figcaption></figure>" for name, ref, data in figures)
+    config_html = html.escape(config.to_toml())
+    text = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>tofjax report: {result.sweep_variable} sweep</title>
+<style>body{{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}}table{{border-collapse:collapse}}
+th,td{{border:1px solid #ccc;padding:4px 8px;text-align:left}}figure{{display:inline-block;margin:6px}}
+img{{max-width:520px}}pre{{background:#f6f6f6;padding:8px;font-size:12px}}</style></head><body>
+<h1>tofjax simulation report: {result.sweep_variable} sweep</h1>
+<p>Data: <code>{html.escape(str(csv_path))}</code></p>
+<h2>Headline figures</h2><table>{table}</table>
+<h3>Dominant noise source along the sweep (photon transfer curve)</h3><ul>{regions}</ul>
+<h2>Figures</h2>{images}
+<h2>Configuration</h2><pre>{config_html}</pre>
+</body></html>
+"""
+    out = directory / "report.html"
+    out.write_text(text, encoding="utf-8")
+    return out
