@@ -8,6 +8,8 @@ import math
 import warnings
 from pathlib import Path
 
+from tofjax.cli import positive_float, positive_int
+
 
 def _pair(text: str) -> tuple[str, tuple[float, float]]:
     name, sep, rest = text.partition("=")
@@ -19,26 +21,6 @@ def _pair(text: str) -> tuple[str, tuple[float, float]]:
     if not sep or not colon or not all(math.isfinite(v) for v in values):
         raise argparse.ArgumentTypeError(f"{text!r} is not NAME=A:B with two numbers")
     return name.strip(), values
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{value} is out of range: allowed integer >= 1")
-    return value
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"{value} is out of range: allowed value > 0")
-    return value
 
 
 def register(subparsers) -> None:
@@ -55,14 +37,14 @@ def register(subparsers) -> None:
                    help="bounds of a fitted parameter (default: its configuration range); repeatable")
     p.add_argument("--prior", type=_pair, action="append", default=[], metavar="NAME=MEAN:SIGMA",
                    help="Gaussian prior of a fitted parameter for --mcmc (default: uniform within bounds)")
-    p.add_argument("--relative-error", type=_positive_float,
+    p.add_argument("--relative-error", type=positive_float,
                    help="use this fraction of each value as its uncertainty instead of deriving it from n_frames")
-    p.add_argument("--min-snr", type=_positive_float, default=5.0,
+    p.add_argument("--min-snr", type=positive_float, default=5.0,
                    help="leave out rows whose amplitude mean/std is below this (default 5)")
-    p.add_argument("--max-steps", type=_positive_int, default=256, help="least-squares step limit (default 256)")
+    p.add_argument("--max-steps", type=positive_int, default=256, help="least-squares step limit (default 256)")
     p.add_argument("--mcmc", action="store_true", help="sample the posterior with emcee after the least squares")
-    p.add_argument("--walkers", type=_positive_int, default=32, help="emcee walkers (default 32)")
-    p.add_argument("--steps", type=_positive_int, default=2000, help="emcee steps (default 2000)")
+    p.add_argument("--walkers", type=positive_int, default=32, help="emcee walkers (default 32)")
+    p.add_argument("--steps", type=positive_int, default=2000, help="emcee steps (default 2000)")
     p.add_argument("--backend", type=Path, help="HDF5 file for the chain (needs h5py)")
     p.add_argument("--resume", action="store_true", help="continue the chain stored in --backend")
     p.add_argument("--seed", type=int, default=0, help="random seed of the sampler (default 0)")

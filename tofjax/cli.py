@@ -48,7 +48,8 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"tofjax: error: {message}\n")
 
 
-def _positive_int(text: str) -> int:
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1 (shared with the other packages' subcommands)."""
     try:
         value = int(text)
     except ValueError:
@@ -68,7 +69,16 @@ def _seed(text: str) -> int:
     return value
 
 
-def _float(text: str) -> float:
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    value = finite_float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"{value} is out of range: allowed value > 0")
+    return value
+
+
+def finite_float(text: str) -> float:
+    """argparse type: a finite number."""
     try:
         value = float(text)
     except ValueError:
@@ -90,10 +100,10 @@ def build_parser() -> argparse.ArgumentParser:
                                      "[pixel] iterations).")
     sim.add_argument("--config", type=Path, help="TOML configuration (default: built-in defaults)")
     sim.add_argument("--sweep", required=True, choices=SWEEPS, help="the swept quantity")
-    sim.add_argument("--from", dest="start", type=_float, help="sweep start, SI units (m, lx, s)")
-    sim.add_argument("--to", dest="stop", type=_float, help="sweep end, SI units (m, lx, s)")
-    sim.add_argument("--samples", type=_positive_int, help="number of sweep samples")
-    sim.add_argument("--iterations", type=_positive_int, help="Monte Carlo frames per sample")
+    sim.add_argument("--from", dest="start", type=finite_float, help="sweep start, SI units (m, lx, s)")
+    sim.add_argument("--to", dest="stop", type=finite_float, help="sweep end, SI units (m, lx, s)")
+    sim.add_argument("--samples", type=positive_int, help="number of sweep samples")
+    sim.add_argument("--iterations", type=positive_int, help="Monte Carlo frames per sample")
     sim.add_argument("--method", choices=("mc", "analytic"), default="mc",
                      help="mc: Monte Carlo frames (default); analytic: propagated variances")
     sim.add_argument("--seed", type=_seed, default=0, help="random seed of the Monte Carlo (default 0)")
