@@ -80,7 +80,7 @@ class SweepData:
 
     @property
     def n_rows(self) -> int:
-        return len(next(iter(self.columns.values())))
+        return len(next(iter(self.columns.values()))) if self.columns else 0
 
     @property
     def sweep(self) -> str:
@@ -137,8 +137,9 @@ def _check_value(path, line: int, column: int, name: str, x: float) -> None:
         fail("value >= 0")
 
 
-def parse_sweep(text: str, path: str | os.PathLike = "<string>") -> SweepData:
-    """Parse the text of a sweep file (see the module docstring for the format)."""
+def parse_sweep(text: str, path: str | os.PathLike = "<string>", *, allow_empty: bool = False) -> SweepData:
+    """Parse the text of a sweep file (see the module docstring for the format). ``allow_empty``
+    accepts a file with a header and no rows yet (a recording that has just started)."""
     lines = text.splitlines()
     if not lines or lines[0].strip() != f"# format: {FORMAT}":
         first = lines[0].strip() if lines else ""
@@ -200,9 +201,9 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>") -> SweepData:
             _check_value(path, k + 1, _column(raw, j), header[j], x)
             row.append(x)
         rows.append(row)
-    if not rows:
+    if not rows and not allow_empty:
         raise SweepFileError(path, len(lines) + 1, None, "no data rows")
-    data = np.array(rows, dtype=float)
+    data = np.array(rows, dtype=float).reshape(len(rows), len(header))
     return SweepData(metadata, {name: data[:, j] for j, name in enumerate(header)}, str(path),
                      np.array(row_lines), {name: j + 1 for j, name in enumerate(header)})
 
@@ -213,7 +214,7 @@ def _column(line: str, field: int) -> int:
     return 1 + sum(len(c) + 1 for c in cells[: max(field, 0)])
 
 
-def read_sweep(path: str | os.PathLike) -> SweepData:
+def read_sweep(path: str | os.PathLike, *, allow_empty: bool = False) -> SweepData:
     """Read a sweep file; raises :class:`SweepFileError` naming file, line and column."""
     try:
         text = Path(path).read_text(encoding="utf-8")
@@ -221,7 +222,7 @@ def read_sweep(path: str | os.PathLike) -> SweepData:
         raise SweepFileError(path, None, None, "file not found") from None
     except UnicodeDecodeError as err:
         raise SweepFileError(path, None, None, f"not UTF-8 text: {err}") from None
-    return parse_sweep(text, path)
+    return parse_sweep(text, path, allow_empty=allow_empty)
 
 
 def _format_cell(x) -> str:
@@ -243,10 +244,12 @@ class SweepWriter:
     - ``metadata``: the ``# key: value`` lines (``format`` is added; ``created_utc`` defaults to now).
     - ``columns``: the column names, in order; must include :data:`REQUIRED_COLUMNS`.
     - ``sync``: fsync after every row (default); ``False`` syncs once, on close.
+    - ``append``: continue an existing file (same columns) instead of creating it; its metadata
+      stays as it is.
     """
 
     def __init__(self, path: str | os.PathLike, metadata: Mapping[str, object], columns: Iterable[str],
-                 *, sync: bool = True):
+                 *, sync: bool = True, append: bool = False):
         self.path = Path(path)
         self.sync = sync
         self.columns = list(columns)
@@ -260,7 +263,14 @@ class SweepWriter:
         if missing_meta or missing:
             raise ValueError(f"sweep file {self.path}: missing metadata {missing_meta} / columns {missing}")
         _check_metadata(self.path, meta, {})
-        self._file: IO[str] | None = open(self.path, "w", encoding="utf-8", newline="\n")
+        if append:
+            existing = read_sweep(self.path, allow_empty=True)
+            if list(existing.columns) != self.columns:
+                raise SweepFileError(self.path, None, None, f"cannot append: the file's columns {list(existing.columns)}"
+                                                            f" differ from {self.columns}")
+            self._file: IO[str] | None = open(self.path, "a", encoding="utf-8", newline="\n")
+            return
+        self._file = open(self.path, "w", encoding="utf-8", newline="\n")
         self._write("".join(f"# {k}: {v}\n" for k, v in meta.items()) + ",".join(self.columns) + "\n")
 
     def _write(self, text: str) -> None:

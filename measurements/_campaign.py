@@ -1,0 +1,164 @@
+"""Recording campaigns: sweep the stage, the exposure or the background light, grab frames, write
+one tofjax-sweep row per point as soon as it is measured (flushed and fsynced), resumable.
+
+Statistics of a point, over its frames and the ROI's pixels (docs/measurements.md):
+- depth: wrap-safe (circular) per pixel over its valid frames; ``depth_std_m`` is the root mean
+  square of the pixels' temporal standard deviations (ddof 1), ``depth_mean_m`` the circular mean
+  of all valid samples in [0, d_u);
+- amplitude: mean of all valid samples; ``amplitude_std_lsb`` the RMS of the pixels' temporal stds;
+- ``valid_fraction``: valid samples over all samples; ``n_frames``: frames per pixel.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import tofjax as tj
+from tofjax import sweepfile as sf
+
+from ._devices import Frames
+
+SWEEPS = ("distance", "integration_time", "illuminance")
+EXTRA_COLUMNS = ("stage_position_m", "requested_value", "elapsed_s")
+
+
+@dataclasses.dataclass
+class CampaignSettings:
+    """What to record. Sweep values in SI units (m, s, lx); nominal values for the fixed quantities."""
+
+    sweep: str
+    start: float
+    stop: float
+    samples: int
+    frames: int = 100
+    roi: tuple[int, int] = (3, 3)
+    distance_m: float = 1.0
+    integration_time_s: float = 2e-3
+    illuminance_lx: float = 0.0
+    settle_s: float = 0.0
+    raw_dir: Path | None = None
+
+    def __post_init__(self):
+        if self.sweep not in SWEEPS:
+            raise ValueError(f"sweep = {self.sweep!r} is not allowed: expected one of {', '.join(SWEEPS)}")
+        for name, ok, allowed in (("samples", self.samples >= 1, "integer >= 1"),
+                                  ("frames", self.frames >= 2, "integer >= 2"),
+                                  ("roi", len(self.roi) == 2 and min(self.roi) >= 1, "W,H with W, H >= 1"),
+                                  ("settle_s", self.settle_s >= 0, "value >= 0")):
+            if not ok:
+                raise ValueError(f"{name} = {getattr(self, name)!r} is out of range: allowed {allowed}")
+        if self.samples > 1 and not self.start < self.stop:
+            raise ValueError(f"from = {self.start!r} must be less than to = {self.stop!r}")
+
+    @property
+    def points(self) -> np.ndarray:
+        return np.linspace(self.start, self.stop, self.samples)
+
+
+def point_statistics(frames: Frames, unambiguity_m: float) -> dict[str, float]:
+    """The row statistics of one point (module docstring)."""
+    depth, amp, valid = (np.asarray(a).reshape(a.shape[0], -1) for a in (frames.depth_m, frames.amplitude_lsb,
+                                                                          frames.valid))
+    n_frames = depth.shape[0]
+    out = {"n_frames": float(n_frames), "valid_fraction": float(np.mean(valid))}
+    phase = 2 * np.pi * depth / unambiguity_m
+    z = np.where(valid, np.exp(1j * phase), 0)
+    if not np.any(valid):
+        return out | {k: math.nan for k in ("depth_mean_m", "depth_std_m", "amplitude_mean_lsb", "amplitude_std_lsb")}
+    centre = np.angle(z.sum())
+    dev = np.angle(np.exp(1j * (phase - centre)))
+    counts = valid.sum(axis=0)
+    usable = counts >= 2
+    per_mean = np.where(usable, np.where(valid, dev, 0).sum(axis=0) / np.maximum(counts, 1), 0)
+    per_var = np.where(valid, (dev - per_mean) ** 2, 0).sum(axis=0) / np.maximum(counts - 1, 1)
+    amp_mean_px = np.where(valid, amp, 0).sum(axis=0) / np.maximum(counts, 1)
+    amp_var = np.where(valid, (amp - amp_mean_px) ** 2, 0).sum(axis=0) / np.maximum(counts - 1, 1)
+    mean_phase = np.mod(centre + np.mean(dev[valid]), 2 * np.pi)
+    return out | {
+        "depth_mean_m": float(mean_phase / (2 * np.pi) * unambiguity_m),
+        "depth_std_m": float(np.sqrt(np.mean(per_var[usable])) * unambiguity_m / (2 * np.pi)) if usable.any() else math.nan,
+        "amplitude_mean_lsb": float(np.mean(amp[valid])),
+        "amplitude_std_lsb": float(np.sqrt(np.mean(amp_var[usable]))) if usable.any() else math.nan,
+    }
+
+
+def _done_points(path: Path, settings: CampaignSettings) -> np.ndarray:
+    data = sf.read_sweep(path, allow_empty=True)
+    if data.metadata.get("sweep") != settings.sweep:
+        raise ValueError(f"{path}: cannot resume: it records a {data.metadata.get('sweep')} sweep, not {settings.sweep}")
+    if "requested_value" not in data.columns:
+        raise ValueError(f"{path}: cannot resume: it has no requested_value column (not written by tofjax record)")
+    return data.columns["requested_value"] if data.n_rows else np.array([])
+
+
+def run_campaign(settings: CampaignSettings, *, stage, camera, lux, out: str | Path, metadata: dict,
+                 resume: bool = False, progress: bool = True, distance_offset_m: float = 0.0) -> int:
+    """Record the sweep into ``out``; returns the number of rows written now.
+
+    Every row is appended and fsynced as soon as its point is measured, so an interrupted campaign
+    leaves a valid file with every completed row; ``resume`` skips the points already in it.
+    """
+    out = Path(out)
+    columns = [*sf.REQUIRED_COLUMNS, *EXTRA_COLUMNS]
+    done = _done_points(out, settings) if resume and out.exists() else np.array([])
+    todo = [(i, x) for i, x in enumerate(settings.points) if not np.any(np.isclose(done, x, rtol=1e-9, atol=1e-12))]
+    unambiguity = 299_792_458.0 / (2.0 * camera.modulation_frequency_hz)
+    if settings.sweep != "integration_time":
+        camera.set_integration_time(settings.integration_time_s)
+    if settings.sweep != "distance":
+        stage.move_to(settings.distance_m - distance_offset_m)
+    if settings.raw_dir is not None:
+        Path(settings.raw_dir).mkdir(parents=True, exist_ok=True)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=settings.samples, initial=settings.samples - len(todo), unit="point", desc="recording")
+    written, t0 = 0, time.monotonic()
+    with sf.SweepWriter(out, metadata, columns, append=resume and out.exists()) as writer:
+        for i, value in todo:
+            t_int = settings.integration_time_s
+            if settings.sweep == "distance":
+                stage.move_to(value - distance_offset_m)
+            elif settings.sweep == "integration_time":
+                camera.set_integration_time(value)
+                t_int = value
+            elif hasattr(lux, "value_lx"):  # a virtual lamp: set it; a real one is set by the operator
+                lux.value_lx = float(value)
+            if settings.settle_s:
+                time.sleep(settings.settle_s)
+            position = stage.position_m()
+            reading = lux.read_lx()
+            frames = camera.grab(settings.frames)
+            row = point_statistics(frames, unambiguity) | {
+                "distance_m": position + distance_offset_m, "integration_time_s": t_int, "illuminance_lx": reading,
+                "stage_position_m": position, "requested_value": float(value), "elapsed_s": time.monotonic() - t0,
+            }
+            if settings.raw_dir is not None:
+                np.savez(Path(settings.raw_dir) / f"point_{i:04d}.npz", depth_m=frames.depth_m,
+                         amplitude_lsb=frames.amplitude_lsb, valid=frames.valid, **{k: row[k] for k in
+                         ("distance_m", "integration_time_s", "illuminance_lx")})
+            writer.write_row(row)
+            written += 1
+            if bar is not None:
+                bar.update(1)
+    if bar is not None:
+        bar.close()
+    return written
+
+
+def campaign_metadata(settings: CampaignSettings, camera, stage, lux, params: tj.Params, extra: dict) -> dict:
+    """Metadata lines of a recording (docs/measurements.md)."""
+    return {
+        "sweep": settings.sweep, "source": "measurement",
+        "modulation_frequency_hz": repr(float(camera.modulation_frequency_hz)),
+        "n_phases": params.pixel.n_phases, "created_utc": sf.utc_now(), "software": f"tofjax {tj.__version__}",
+        "camera_model": getattr(camera, "model", "unknown"), "camera_serial": getattr(camera, "serial", "unknown"),
+        "stage": type(stage).__name__, "stage_counts_per_mm": getattr(stage, "counts_per_mm", "n/a"),
+        "lux_meter": type(lux).__name__, "roi": f"{settings.roi[0]}x{settings.roi[1]}",
+        "frames": settings.frames, "scene.reflectivity": repr(float(params.scene.reflectivity)), **extra,
+    }
