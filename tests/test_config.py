@@ -165,3 +165,15 @@ def test_config_replace_and_sweeps():
     assert sweep.samples == 7 and float(sweep.values[0]) == pytest.approx(0.2e-3)
     with pytest.raises(ValueError, match="sweep = 'depth' is not allowed"):
         config.sweep("depth")
+
+
+def test_a_list_of_modulation_frequencies_means_range_extension():
+    config = tj.config_from_dict({"illumination_waveform": {"modulation_frequency_hz": [80.32e6, 60.24e6]}})
+    assert config.modulation_frequencies_hz == [80.32e6, 60.24e6]
+    assert float(config.params.illumination_waveform.modulation_frequency_hz) == 80.32e6
+    assert tj.Config().modulation_frequencies_hz == [80.32e6]  # one frequency stays the default
+    with pytest.raises(tj.ConfigError, match=r"modulation_frequency_hz = \[80320000.0, -1.0\]|out of range"):
+        tj.config_from_dict({"illumination_waveform": {"modulation_frequency_hz": [80.32e6, -1.0]}})
+    with pytest.raises(tj.ConfigError, match="not both"):
+        tj.config_from_dict({"illumination_waveform": {"modulation_frequency_hz": [80e6, 60e6],
+                                                       "extra_modulation_frequencies_hz": [20e6]}})

@@ -185,6 +185,19 @@ def test_posterior_agrees_with_least_squares(example_fit):
         ft.sample_posterior(example_fit.problem, example_fit.least_squares, walkers=5, steps=10)
 
 
+def test_a_gaussian_prior_pulls_the_posterior(config, example_fit):
+    """A prior 10 x narrower than the data's sigma, centred 3 sigma away, dominates that parameter."""
+    ls = example_fit.least_squares
+    mu, sigma = ls.estimate[2] + 3 * ls.sigma[2], ls.sigma[2] / 10
+    parameters = ft.make_parameters(NAMES, dict(zip(NAMES, ls.estimate, strict=True)),
+                                    priors={NAMES[2]: (mu, sigma)})
+    problem = ft.build_problem(parameters, example_fit.rows)
+    with pytest.warns(ft.ShortChainWarning):
+        post = ft.sample_posterior(problem, ls, walkers=16, steps=300, seed=4, progress=False)
+    assert abs(post.median[2] - mu) < 3 * sigma
+    assert post.std[2] < 0.3 * ls.sigma[2]
+
+
 def test_posterior_backend_resumes(example_fit, tmp_path):
     path = tmp_path / "chain.h5"
     with pytest.warns(ft.ShortChainWarning):

@@ -151,8 +151,8 @@ KEYS: tuple[Key, ...] = (
        0.0, 1.0, lo_open=True),
     _k("illumination_waveform", "gauss_order", "int", 15, "1", "super-Gaussian order of gauss_extended", 1, 100),
     _k("illumination_waveform", "fourier_order", "int", 5, "1", "harmonics in the fourier shape", 1, 200),
-    _k("illumination_waveform", "modulation_frequency_hz", "float", 80.32e6, "Hz", "modulation frequency",
-       0.0, 5e9, lo_open=True),
+    _k("illumination_waveform", "modulation_frequency_hz", "float", 80.32e6, "Hz",
+       "modulation frequency; a list [f1, f2, ...] is f1 plus extra_modulation_frequencies_hz", 0.0, 5e9, lo_open=True),
     _k("illumination_waveform", "extra_modulation_frequencies_hz", "float_list", [], "Hz",
        "further frequencies for range extension (e.g. [60.24e6]; empty = one frequency)", 0.0, 5e9, lo_open=True),
     # --- [reference_waveform]  thesis Table 4.7
@@ -346,6 +346,16 @@ def validate(raw: Mapping[str, Any], where: str = "") -> dict[str, dict[str, Any
         if not isinstance(table, Mapping):
             raise ConfigError(f"{loc}[{section}] must be a table of keys, got {_fmt(table)}")
         names = [k.name for k in keys_of(section)]
+        table = dict(table)
+        frequencies = table.get("modulation_frequency_hz") if section == "illumination_waveform" else None
+        if isinstance(frequencies, list):  # a list of frequencies: the first, plus the extras (range extension)
+            if not frequencies:
+                raise ConfigError(f"{loc}illumination_waveform.modulation_frequency_hz = [] is empty: give a number "
+                                  "or a list of numbers > 0")
+            if "extra_modulation_frequencies_hz" in table:
+                raise ConfigError(f"{loc}give either a list in illumination_waveform.modulation_frequency_hz or "
+                                  "extra_modulation_frequencies_hz, not both")
+            table["modulation_frequency_hz"], table["extra_modulation_frequencies_hz"] = frequencies[0], frequencies[1:]
         for name, value in table.items():
             if name not in names:
                 raise ConfigError(f"{loc}unknown key {section}.{name}" + suggest(name, names))
