@@ -181,7 +181,9 @@ class _Status:
 
 
 def _multifrequency_columns(mf) -> dict:
-    primary = jax_get(mf.per_frequency)
+    """Sweep-file columns of a multi-frequency run: combined depth statistics, the first frequency's
+    amplitude, the wrong-unwrap fraction and each frequency's own depth noise."""
+    primary = mf.per_frequency
     cols = {
         "distance_m": primary.distance_m[0], "integration_time_s": primary.integration_time_s[0],
         "illuminance_lx": primary.illuminance_lx[0], "n_frames": np.full(primary.distance_m.shape[1],
@@ -193,12 +195,6 @@ def _multifrequency_columns(mf) -> dict:
     for i in range(primary.depth_std_m.shape[0]):
         cols[f"depth_std_m_f{i + 1}"] = primary.depth_std_m[i]
     return {k: np.asarray(v, dtype=float) for k, v in cols.items()}
-
-
-def jax_get(tree):
-    import jax
-
-    return jax.device_get(tree)
 
 
 def _simulate(args) -> int:
