@@ -16,8 +16,10 @@ import math
 import time
 from pathlib import Path
 
+import jax.numpy as jnp
 import numpy as np
 import tofjax as tj
+from tofjax import _depth
 from tofjax import sweepfile as sf
 
 from ._devices import Frames
@@ -70,19 +72,18 @@ def point_statistics(frames: Frames, unambiguity_m: float) -> dict[str, float]:
     if not np.any(valid):
         return out | {k: math.nan for k in ("depth_mean_m", "depth_std_m", "amplitude_mean_lsb", "amplitude_std_lsb")}
     centre = np.angle(z.sum())
-    dev = np.angle(np.exp(1j * (phase - centre)))
-    counts = valid.sum(axis=0)
-    usable = counts >= 2
-    per_mean = np.where(usable, np.where(valid, dev, 0).sum(axis=0) / np.maximum(counts, 1), 0)
-    per_var = np.where(valid, (dev - per_mean) ** 2, 0).sum(axis=0) / np.maximum(counts - 1, 1)
-    amp_mean_px = np.where(valid, amp, 0).sum(axis=0) / np.maximum(counts, 1)
-    amp_var = np.where(valid, (amp - amp_mean_px) ** 2, 0).sum(axis=0) / np.maximum(counts - 1, 1)
-    mean_phase = np.mod(centre + np.mean(dev[valid]), 2 * np.pi)
+    mean_phase = np.mod(centre + np.mean(np.angle(np.exp(1j * (phase - centre)))[valid]), 2 * np.pi)
+    # Per pixel (rows), over its valid frames: wrap-safe phase std and amplitude std (ddof 1).
+    _, phase_std, _ = _depth.circular_stats(jnp.asarray(phase.T), jnp.asarray(valid.T))
+    _, amp_std = _depth.masked_mean_std(jnp.asarray(amp.T), jnp.asarray(valid.T))
+    phase_std, amp_std = np.asarray(phase_std), np.asarray(amp_std)
+    usable = np.isfinite(phase_std)  # pixels with at least two valid frames
     return out | {
         "depth_mean_m": float(mean_phase / (2 * np.pi) * unambiguity_m),
-        "depth_std_m": float(np.sqrt(np.mean(per_var[usable])) * unambiguity_m / (2 * np.pi)) if usable.any() else math.nan,
+        "depth_std_m": float(np.sqrt(np.mean(phase_std[usable] ** 2)) * unambiguity_m / (2 * np.pi))
+        if usable.any() else math.nan,
         "amplitude_mean_lsb": float(np.mean(amp[valid])),
-        "amplitude_std_lsb": float(np.sqrt(np.mean(amp_var[usable]))) if usable.any() else math.nan,
+        "amplitude_std_lsb": float(np.sqrt(np.mean(amp_std[usable] ** 2))) if usable.any() else math.nan,
     }
 
 

@@ -26,6 +26,12 @@ def demodulate(values: Float[Array, "*b phases"]) -> Complex[Array, "*b"]:
     return jnp.sum(values * jnp.exp(1j * theta), axis=-1)
 
 
+def safe_sqrt(x: Array) -> Array:
+    """sqrt(x) for x > 0, else 0, with a finite (zero) gradient at and below 0."""
+    ok = x > 0.0
+    return jnp.where(ok, jnp.sqrt(jnp.where(ok, x, 1.0)), 0.0)
+
+
 def _safe_abs(z: Array) -> Array:
     ok = jnp.abs(z) > 0.0
     return jnp.where(ok, jnp.abs(jnp.where(ok, z, 1.0)), 0.0)
@@ -67,7 +73,7 @@ def circular_stats(
     n_safe = jnp.where(enough, n, 2)
     mean_dev = jnp.sum(dev, axis=-1) / n_safe
     var = jnp.sum(jnp.where(valid, (dev - mean_dev[..., None]) ** 2, 0.0), axis=-1) / (n_safe - 1)
-    std = jnp.where(var > 0.0, jnp.sqrt(jnp.where(var > 0.0, var, 1.0)), 0.0)
+    std = safe_sqrt(var)
     mean = jnp.mod(centre + mean_dev, 2.0 * jnp.pi)
     return jnp.where(enough, mean, jnp.nan), jnp.where(enough, std, jnp.nan), n
 
@@ -81,7 +87,7 @@ def masked_mean_std(
     n_safe = jnp.where(enough, n, 2)
     mean = jnp.sum(jnp.where(valid, x, 0.0), axis=-1) / n_safe
     var = jnp.sum(jnp.where(valid, (x - mean[..., None]) ** 2, 0.0), axis=-1) / (n_safe - 1)
-    std = jnp.where(var > 0.0, jnp.sqrt(jnp.where(var > 0.0, var, 1.0)), 0.0)
+    std = safe_sqrt(var)
     return jnp.where(enough, mean, jnp.nan), jnp.where(enough, std, jnp.nan)
 
 

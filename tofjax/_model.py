@@ -199,8 +199,7 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None) -> Re
     # Next order of the phase variance for circular complex Gaussian noise: s^2/A^2 (1 + s^2/A^2).
     var_phase = var_phase * (1.0 + var_phase)
     var_amp = jnp.sum(grad_amp**2 * var, axis=-1)
-    std_phase = jnp.where(var_phase > 0, jnp.sqrt(jnp.where(var_phase > 0, var_phase, 1.0)), 0.0)
-    std_amp = jnp.where(var_amp > 0, jnp.sqrt(jnp.where(var_amp > 0, var_amp, 1.0)), 0.0)
+    std_phase, std_amp = _depth.safe_sqrt(var_phase), _depth.safe_sqrt(var_amp)
 
     pixel_sat, sbi_on = _saturation.flags(n_a, n_b, full_well, pixel.sbi)
     pixel_sat = jnp.any(pixel_sat, axis=-1)

@@ -135,26 +135,24 @@ def photon_transfer_curve(result, ax=None) -> Figure:
     return fig
 
 
-def snr(result, ax=None) -> Figure:
-    """SNR = 20 log10(signal / total noise) in dB (Eq 5.1; Figs 5.12b, 5.14b, 5.17b)."""
+def _over_sweep(result, values, ylabel: str, ax) -> Figure:
     fig, ax = _axes(ax)
     x, label = _x(result)
-    ax.plot(x, np.asarray(result.snr_db))
+    ax.plot(x, np.asarray(values))
     ax.set_xlabel(label)
-    ax.set_ylabel("SNR [dB]")
+    ax.set_ylabel(ylabel)
     ax.grid(alpha=0.3)
     return fig
+
+
+def snr(result, ax=None) -> Figure:
+    """SNR = 20 log10(signal / total noise) in dB (Eq 5.1; Figs 5.12b, 5.14b, 5.17b)."""
+    return _over_sweep(result, result.snr_db, "SNR [dB]", ax)
 
 
 def amplitude(result, ax=None) -> Figure:
     """Amplitude in LSB (Figs 5.11a, 5.16a)."""
-    fig, ax = _axes(ax)
-    x, label = _x(result)
-    ax.plot(x, np.asarray(result.amplitude_mean_lsb))
-    ax.set_xlabel(label)
-    ax.set_ylabel("amplitude [LSB]")
-    ax.grid(alpha=0.3)
-    return fig
+    return _over_sweep(result, result.amplitude_mean_lsb, "amplitude [LSB]", ax)
 
 
 def depth_noise(result, relative: bool = False, estimates: dict | None = None, ax=None) -> Figure:
