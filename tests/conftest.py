@@ -1,11 +1,19 @@
 """Test configuration: tofjax turns on float64 on import; NaN checks stay off so that the tests
 see what a user sees."""
 
-import jax
-import numpy as np
-import pytest
+import os
+import tempfile
 
-import tofjax  # noqa: F401  (enables x64)
+# One persistent JAX compilation cache for a test run's processes: the pytest-xdist workers and the
+# notebooks' kernels (which inherit the environment) compile many of the same programs. Set before
+# jax is imported; a user's own setting wins.
+os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", os.path.join(tempfile.gettempdir(), f"tofjax-tests-jax-cache-{os.getuid()}"))
+
+import jax  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import tofjax  # noqa: F401, E402  (enables x64)
 
 jax.config.update("jax_numpy_rank_promotion", "raise")
 

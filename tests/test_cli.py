@@ -86,3 +86,17 @@ def test_no_traceback_from_the_installed_entry_point(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.strip() == ('tofjax: error: ' + str(cfg) + ': unknown key camera.k_lense (did you mean "k_lens"?)')
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_run_sweep_refuses_unknown_methods_and_analytic_range_extension():
+    from tofjax._run import run_sweep
+
+    config = tj.Config()
+    sweep = config.sweep("distance", samples=3)
+    with pytest.raises(ValueError, match="method = 'fast' is not allowed"):
+        run_sweep(config, sweep, "fast")
+    dual = config.replace("illumination_waveform.extra_modulation_frequencies_hz", [60.24e6])
+    with pytest.raises(ValueError, match="need the Monte Carlo method"):
+        run_sweep(dual, sweep, "analytic")
+    run = run_sweep(config, sweep, "analytic")
+    assert run.result.method == "analytic" and run.multifrequency is None and run.elapsed_s > 0

@@ -106,6 +106,28 @@ def test_sbi_keeps_the_pixel_unsaturated_far_beyond_saturation_without_it(backgr
         np.testing.assert_allclose(v - v[0], 0.0, atol=1e-9)
 
 
+def test_full_well_fraction_is_the_headroom_to_sbi_and_saturation():
+    """full_well_fraction crosses 1 exactly where SBI engages (with SBI) or the pixel saturates
+    (without), grows with the background light, and is the same in both paths."""
+    lux = np.geomspace(1.0, 1e5, 200)
+    sweep = tj.Sweep("illuminance", lux)
+    for sbi in (True, False):
+        p = tj.Params(scene=tj.Scene(background="halogen"), pixel=tj.Pixel(sbi=sbi))
+        r = tj.predict(p, sweep)
+        frac = np.asarray(r.full_well_fraction)
+        flag = np.asarray(r.sbi_active_fraction if sbi else r.pixel_saturated_fraction) > 0
+        assert np.all(np.diff(frac) > 0) and frac[0] < 1 < frac[-1]
+        np.testing.assert_array_equal(frac >= 1, flag)
+        mc = tj.simulate(p, tj.Sweep("illuminance", lux[::40]), jax.random.key(0), 5)
+        np.testing.assert_allclose(np.asarray(mc.full_well_fraction), frac[::40], rtol=1e-12)
+    # Closed form at the default point: both taps' expected charge at most the pair's total.
+    r = tj.predict(tj.Params(), tj.Sweep("distance", [1.0]))
+    n = r.noise
+    full_well = (2.9 - 2.0) * 14e-15 / 1.602176634e-19
+    upper = float(n.signal_e[0] + n.background_e[0] + n.dark_e[0]) / full_well
+    assert upper / 2 < float(r.full_well_fraction[0]) < upper
+
+
 def test_saturated_samples_are_flagged_and_never_zero():
     p = tj.Params(pixel=tj.Pixel(sbi=False))
     sweep = tj.Sweep("distance", np.array([0.2, 0.3, 1.0]))

@@ -51,4 +51,18 @@ from ._waveforms import (  # noqa: E402
 
 from . import sweepfile as sweepfile  # noqa: E402
 
+
+def explorer(config=None):
+    """The interactive explorer, the thesis' GUI (§4.3) as an ipywidgets app: tabs Main, Pixel,
+    Scene & Camera, Physical & ADC; live waveform and FoV previews; sweep, plot choice, Calculate;
+    TOML load/save. ``config``: a :class:`Config`, a TOML path or ``None`` (defaults).
+
+    Needs ipywidgets (``pip install "tofjax[notebooks]"``); returns a
+    :class:`tofjax._explorer.Explorer`, shown when it is a cell's last expression.
+    """
+    from ._explorer import Explorer
+
+    return Explorer(config)
+
+
 __version__ = "0.1.0"

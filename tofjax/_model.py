@@ -127,6 +127,12 @@ def _taps_volts(params: Params, a: Array, b: Array):
     return params.pixel.v_reset_v - a / per_volt, params.pixel.v_reset_v - b / per_volt
 
 
+def _full_well_fraction(n_a: Array, n_b: Array, full_well: Array) -> Array:
+    """Expected charge of the fullest tap (photo + dark electrons, before SBI and saturation) over
+    the full well N_sat, per sample: SBI engages or the tap saturates above 1 (§3.2.5)."""
+    return jnp.max(jnp.maximum(n_a, n_b), axis=-1) / full_well
+
+
 def _nan_unless(ok: Array, x: Array) -> Array:
     return jnp.where(ok, x, jnp.nan)
 
@@ -227,6 +233,7 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None) -> Re
         valid_fraction=valid.astype(float), pixel_saturated_fraction=pixel_sat.astype(float),
         adc_saturated_fraction=adc_sat.astype(float),
         sbi_active_fraction=jnp.any(sbi_on, axis=-1).astype(float),
+        full_well_fraction=_full_well_fraction(n_a, n_b, full_well),
     )
 
 
@@ -327,4 +334,5 @@ def simulate(
         snr_db=_snr_db(noise), noise=noise,
         valid_fraction=jnp.mean(valid, axis=1), pixel_saturated_fraction=jnp.mean(pixel_sat, axis=1),
         adc_saturated_fraction=jnp.mean(adc_sat, axis=1), sbi_active_fraction=jnp.mean(sbi_on, axis=1),
+        full_well_fraction=_full_well_fraction(n_a, n_b, full_well),
     )

@@ -44,7 +44,9 @@ class Result(eqx.Module):
     ``codes``, ``phase_rad``, wrapped ``depth_m``, ``depth_unwrapped_m`` (along the sweep),
     ``amplitude_lsb`` and ``valid``. Statistics: depth mean (wrapped and unwrapped) and standard
     deviation (circular), amplitude mean and standard deviation (LSB), SNR (Eq 5.1), and the
-    fractions of frames that are valid, pixel-saturated, ADC-saturated and had SBI engaged.
+    fractions of frames that are valid, pixel-saturated, ADC-saturated and had SBI engaged, and
+    ``full_well_fraction``: the expected charge of the fullest tap (before SBI and saturation) over
+    the full well, the headroom to SBI/saturation (> 1: SBI engaged or saturated).
 
     In the hard mode, statistics of samples without two valid frames (analytic: whose expected
     signal saturates) are NaN and flagged by ``valid_fraction``; never reported as 0 m.
@@ -82,6 +84,7 @@ class Result(eqx.Module):
     pixel_saturated_fraction: Float[Array, " samples"]
     adc_saturated_fraction: Float[Array, " samples"]
     sbi_active_fraction: Float[Array, " samples"]
+    full_well_fraction: Float[Array, " samples"]
 
     @property
     def relative_depth_std(self) -> Float[Array, " samples"]:

@@ -198,10 +198,7 @@ def _multifrequency_columns(mf) -> dict:
 
 
 def _simulate(args) -> int:
-    import jax
-
-    from ._model import predict, simulate
-    from ._multifrequency import simulate_multifrequency
+    from ._run import run_sweep
     from .sweepfile import columns_from_result, utc_now, write_sweep
 
     if args.out is None and args.report is None:
@@ -212,23 +209,13 @@ def _simulate(args) -> int:
     params = config.params
     iterations = args.iterations or config.iterations
     freqs = config.modulation_frequencies_hz
-    multi = None
     if len(freqs) > 1 and args.method != "mc":
         raise _UsageError("several modulation frequencies (illumination_waveform.extra_modulation_frequencies_hz) "
                           "need --method mc")
     label = f"simulating {sweep.samples} samples" + (f" x {iterations} frames" if args.method == "mc" else "")
-    t0 = time.perf_counter()
     with _Status(label):
-        if len(freqs) > 1:
-            multi = jax.device_get(simulate_multifrequency(params, sweep, jax.random.key(args.seed), iterations,
-                                                           freqs))
-            result = jax.tree_util.tree_map(lambda x: x[0], multi.per_frequency)
-        elif args.method == "mc":
-            result = simulate(params, sweep, jax.random.key(args.seed), iterations, fixed_pattern=args.fixed_pattern)
-        else:
-            result = predict(params, sweep)
-        result = jax.device_get(result)
-    elapsed = time.perf_counter() - t0
+        run = run_sweep(config, sweep, args.method, iterations, args.seed, args.fixed_pattern)
+    result, multi, elapsed = run.result, run.multifrequency, run.elapsed_s
     metadata = {
         "sweep": args.sweep, "source": "simulation", "method": args.method,
         "modulation_frequency_hz": repr(float(params.illumination_waveform.modulation_frequency_hz)),

@@ -8,11 +8,20 @@ nothing here needs a display or pyplot. :data:`PLOTS` lists which plots apply to
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 from matplotlib.figure import Figure
 
 _AXES = {"distance": ("distance [m]", 1.0), "illuminance": ("background illuminance [lx]", 1.0),
          "integration_time": ("integration time [ms]", 1e3)}
+
+
+def to_png(fig: Figure, dpi: float = 110) -> bytes:
+    """The figure rendered as PNG bytes (Agg; no display needed)."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return buf.getvalue()
 
 
 def _axes(ax, ncols: int = 1, size=(6.4, 4.2)):

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import base64
 import html
-import io
 from pathlib import Path
 
 import numpy as np
@@ -75,12 +74,6 @@ def dominant_noise(result) -> list[dict]:
     return regions
 
 
-def _png(fig) -> bytes:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    return buf.getvalue()
-
-
 def _fmt(value, unit="", scale=1.0, digits=4):
     return "not reached" if value is None else f"{value * scale:.{digits}g} {unit}".strip()
 
@@ -99,12 +92,12 @@ def write_report(directory, config, result, elapsed_s: float, csv_path, multifre
                                                        "pulsed estimate": pulsed_depth_noise(params, sweep)})
         else:
             fig = func(result)
-        figures.append((name, ref, _png(fig)))
-    figures.append(("tap_voltages", "Figs 5.2/5.15a", _png(plots.tap_voltages(result, params))))
-    figures.append(("waveforms", "Fig 4.2", _png(plots.waveforms(params))))
-    figures.append(("fov_footprint", "Fig 3.3", _png(plots.fov_footprint(params))))
+        figures.append((name, ref, plots.to_png(fig)))
+    figures.append(("tap_voltages", "Figs 5.2/5.15a", plots.to_png(plots.tap_voltages(result, params))))
+    figures.append(("waveforms", "Fig 4.2", plots.to_png(plots.waveforms(params))))
+    figures.append(("fov_footprint", "Fig 3.3", plots.to_png(plots.fov_footprint(params))))
     if multifrequency is not None:
-        figures.append(("multifrequency", "§2.2, Fig 5.9", _png(plots.multifrequency_distance(multifrequency))))
+        figures.append(("multifrequency", "§2.2, Fig 5.9", plots.to_png(plots.multifrequency_distance(multifrequency))))
     for name, _, data in figures:
         (directory / f"{name}.png").write_bytes(data)
 

@@ -1,0 +1,231 @@
+"""The explorer (thesis §4.3 GUI) driven headlessly: set widget values, press its buttons, read
+the configuration, previews, messages and figures."""
+
+import html
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import tofjax as tj
+from tofjax import plots
+from tofjax._schema import KEYS
+
+pytest.importorskip("ipywidgets")
+
+
+@pytest.fixture(scope="module")
+def shared_explorer():
+    return tj.explorer()
+
+
+def _descendants(widget):
+    yield widget
+    for child in getattr(widget, "children", ()):
+        yield from _descendants(child)
+
+
+def _set(ex, dotted, value, index=0):
+    ex.fields[dotted].inputs[index].value = value
+
+
+def test_every_key_sits_in_exactly_one_tab_with_its_unit_and_range():
+    ex = tj.explorer()
+    assert ex.tabs.titles == ("Main", "Pixel", "Scene & Camera", "Physical & ADC")
+    assert set(ex.fields) == {k.dotted for k in KEYS}
+    tab_of = {}
+    for title, tab in zip(ex.tabs.titles, ex.tabs.children, strict=True):
+        ids = {id(x) for x in _descendants(tab)}
+        for dotted, field in ex.fields.items():
+            if id(field.box) in ids:
+                assert dotted not in tab_of, f"{dotted} in {tab_of[dotted]} and {title}"
+                tab_of[dotted] = title
+    assert set(tab_of) == set(ex.fields)
+    assert tab_of["scene.background"] == tab_of["scene.distance_from_m"] == tab_of["pixel.iterations"] == "Main"
+    assert tab_of["pixel.n_phases"] == tab_of["reference_waveform.shape"] == "Pixel"
+    assert tab_of["camera.f_number"] == tab_of["illumination.fov_deg"] == "Scene & Camera"
+    assert tab_of["adc.resolution_bits"] == "Physical & ADC"
+    for key in KEYS:
+        note = ex.fields[key.dotted].note.value
+        assert f"[{html.escape(key.unit)}]" in note and html.escape(key.range_text()) in note
+    constants = next(x.value for x in _descendants(ex.tabs.children[3])
+                     if isinstance(getattr(x, "value", None), str) and "Physical constants" in x.value)
+    assert "299792458" in constants and "1.380649e-23" in constants
+
+
+def test_a_change_updates_the_configuration_and_the_previews():
+    ex = tj.explorer()
+    line = ex.preview["waveforms"].axes[0].lines[0]
+    peak_before = float(np.max(line.get_ydata()))
+    png_before = ex.waveform_image.value
+    _set(ex, "illumination.peak_power_w", 2.4)
+    assert ex.config.values["illumination"]["peak_power_w"] == 2.4 and ex.error is None
+    peak_after = float(np.max(ex.preview["waveforms"].axes[0].lines[0].get_ydata()))
+    assert peak_after == pytest.approx(2 * peak_before, rel=1e-12)
+    assert ex.waveform_image.value != png_before
+
+    # FoV: diagonal -> circular spot pi (d tan(fov/2))^2; h x v -> rectangle 4 d^2 tan tan (§3.1.1).
+    _set(ex, "illumination.fov_deg", 60.0, index=1)
+    assert ex.config.values["illumination"]["fov_deg"] == 60.0
+    assert ex.preview["spot_area_m2"] == pytest.approx(math.pi * math.tan(math.radians(30)) ** 2, rel=1e-12)
+    field = ex.fields["illumination.fov_deg"]
+    assert field.inputs[2].layout.display == "none"
+    field.mode.value = "hv"
+    _set(ex, "illumination.fov_deg", 40.0, index=2)
+    assert ex.config.values["illumination"]["fov_deg"] == [60.0, 40.0]
+    assert field.inputs[2].layout.display is None
+    assert ex.preview["spot_area_m2"] == pytest.approx(
+        4 * math.tan(math.radians(30)) * math.tan(math.radians(20)), rel=1e-12)
+
+    # The derived lens follows the f-number (aperture = focal length / N).
+    focal = ex.preview["focal_length_m"]
+    _set(ex, "camera.f_number", 2.8)
+    assert ex.preview["focal_length_m"] == pytest.approx(focal, rel=1e-12)
+    assert ex.preview["aperture_diameter_m"] == pytest.approx(focal / 2.8, rel=1e-12)
+    _set(ex, "illumination_waveform.modulation_frequency_hz", 40.16e6)
+    assert ex.preview["unambiguity_range_m"] == pytest.approx(299792458 / (2 * 40.16e6), rel=1e-12)
+    _set(ex, "illumination_waveform.extra_modulation_frequencies_hz", "60.24e6, 20e6")
+    assert ex.config.modulation_frequencies_hz == [40.16e6, 60.24e6, 20e6]
+    assert ex.config.params == tj.config_from_dict(ex.config.values).params
+
+
+def test_previews_catch_up_after_an_invalid_spell():
+    """A preview change made while another field is invalid shows once the configuration is valid."""
+    ex = tj.explorer()
+    _set(ex, "pixel.v_saturated_v", 3.5)
+    _set(ex, "illumination.peak_power_w", 3.0)
+    assert ex.error is not None
+    _set(ex, "pixel.v_saturated_v", 2.0)
+    assert ex.error is None
+    assert float(np.max(ex.preview["waveforms"].axes[0].lines[0].get_ydata())) == pytest.approx(3.0, rel=1e-9)
+
+
+@pytest.mark.parametrize(("dotted", "value", "index", "expected"), [
+    ("illumination_waveform.duty_cycle", -0.1, 0, "illumination_waveform.duty_cycle = -0.1 is out of range"),
+    ("pixel.v_saturated_v", 3.5, 0, "pixel.v_saturated_v = 3.5 must be less than pixel.v_reset_v = 2.9"),
+    ("scene.distance_from_m", 9.0, 0, "scene.distance_from_m = 9.0 must be less than scene.distance_to_m"),
+    ("camera.pixel_pitch_m", 0.0, 1, "camera.pixel_pitch_m = [1.75e-05, 0.0] is out of range"),
+    ("illumination_waveform.extra_modulation_frequencies_hz", "60e6, fast", 0, "is not a list of numbers"),
+    ("pixel.photo_responsivity_a_per_w", 0.9, 0, "quantum efficiency above 1"),
+])
+def test_invalid_values_show_the_message_instead_of_raising(dotted, value, index, expected):
+    ex = tj.explorer()
+    before = ex.config
+    _set(ex, dotted, value, index)
+    assert expected in ex.error and expected.split(" ")[0] in ex.message.value
+    assert ex.config is before and ex.calculate_button.disabled
+    ex.calculate_button.click()
+    assert ex.run is None  # nothing ran
+    ex.save_button.click()
+    assert "not saved" in ex.message.value
+    # Another (valid) change does not hide the problem; fixing it clears the message.
+    _set(ex, "scene.reflectivity", 0.5)
+    assert ex.error is not None and ex.config is before
+    ex.fields[dotted].set_value(before.values[dotted.split(".")[0]][dotted.split(".")[1]])
+    assert ex.error is None and ex.message.value == "" and not ex.calculate_button.disabled
+    assert ex.config.values["scene"]["reflectivity"] == 0.5
+
+
+@settings(max_examples=40, deadline=None)
+@given(key=st.sampled_from([k for k in KEYS if k.kind == "float"]),
+       value=st.floats(allow_nan=True, allow_infinity=True))
+def test_any_number_in_any_float_field_is_accepted_or_explained(shared_explorer, key, value):
+    ex = shared_explorer
+    ex.fields[key.dotted].set_value(value)
+    try:
+        if ex.error is None:
+            assert ex.config.values[key.section][key.name] == value
+        else:
+            assert key.dotted in ex.error and ("allowed" in ex.error or "must be less than" in ex.error)
+    finally:
+        ex.fields[key.dotted].set_value(key.default)
+        assert ex.error is None
+
+
+@pytest.mark.parametrize("variable", ["distance", "illuminance", "integration_time"])
+def test_plot_choices_and_range_fields_follow_the_sweep(variable):
+    ex = tj.explorer()
+    for box in ex.plot_checkboxes.values():
+        box.value = True
+    ex.sweep.value = variable
+    enabled = [name for name, box in ex.plot_checkboxes.items() if not box.disabled]
+    assert enabled == plots.applicable(variable) == ex.selected_plots()
+    if variable != "distance":
+        assert ex.plot_checkboxes["wiggling"].disabled and "wiggling" not in ex.selected_plots()
+    for name, (lo, hi) in tj._config.SWEEP_RANGE_KEYS.items():
+        for key in (lo, hi):
+            shown = ex.fields[f"scene.{key}"].box.layout.display is None
+            assert shown == (name == variable)
+
+
+def test_calculate_runs_the_sweep_with_busy_lamp_time_and_the_ticked_plots():
+    ex = tj.explorer()
+    _set(ex, "scene.samples", 12)
+    _set(ex, "pixel.iterations", 40)
+    ex.sweep.value = "integration_time"
+    ex.plot_checkboxes["snr"].value = True
+    lamp = []
+    ex.lamp.observe(lambda change: lamp.append(change["new"]), names="value")
+    ex.calculate_button.click()
+    assert [("busy" in v, "ready" in v) for v in lamp] == [(True, False), (False, True)]
+    assert ex.run.result.method == "mc" and ex.run.result.n_frames == 40
+    np.testing.assert_allclose(ex.run.result.integration_time_s, np.linspace(0.2e-3, 5e-3, 12))
+    assert list(ex.figures) == [n for n in plots.PLOTS if n in ("photon_transfer_curve", "snr", "amplitude",
+                                                                  "depth_noise")]
+    assert len(ex.plots_box.children) == len(ex.figures)
+    assert ex.time_label.value.startswith("simulation time ") and "12 samples" in ex.summary.value
+    assert not ex.calculate_button.disabled and ex.message.value == ""
+
+    ex.method.value = "analytic"
+    ex.sweep.value = "distance"
+    ex.plot_checkboxes["wiggling"].value = True
+    ex.calculate()
+    assert ex.run.result.method == "analytic" and "wiggling" in ex.figures
+    # Several frequencies need frames: the analytic choice is explained, not raised.
+    _set(ex, "illumination_waveform.extra_modulation_frequencies_hz", "60.24e6")
+    ex.calculate()
+    assert "need the Monte Carlo method" in ex.message.value and "ready" in ex.lamp.value
+    ex.method.value = "mc"
+    ex.calculate()
+    assert "multifrequency_distance" in ex.figures and ex.run.multifrequency is not None
+    ex.seed.value = -1
+    ex.calculate()
+    assert "seed = -1 is out of range" in ex.message.value
+
+
+def test_saved_toml_round_trips_and_bad_files_are_reported(tmp_path):
+    ex = tj.explorer()
+    _set(ex, "scene.background", "halogen")
+    _set(ex, "pixel.n_phases", 3)
+    _set(ex, "pixel.sbi", False)
+    ex.fields["camera.fov_deg"].mode.value = "hv"
+    _set(ex, "camera.fov_deg", 50.0, index=2)
+    _set(ex, "camera.optical_area_m", 3e-3, index=0)
+    _set(ex, "illumination_waveform.extra_modulation_frequencies_hz", "60.24e6")
+    assert ex.error is None
+    path = tmp_path / "camera.toml"
+    ex.path.value = str(path)
+    ex.save_button.click()
+    assert "saved" in ex.message.value
+    assert tj.load_config(path).values == ex.config.values
+
+    other = tj.explorer()
+    other.load(path)
+    assert other.config.values == ex.config.values and other.message.value.startswith("loaded")
+    for dotted, field in other.fields.items():  # the widgets show the loaded values
+        section, name = dotted.split(".")
+        assert field.value() == ex.config.values[section][name], dotted
+    assert tj.explorer(path).config.values == ex.config.values
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[pixel]\nn_phases = 3\nsbi = maybe\n")
+    other.path.value = str(bad)
+    other.load_button.click()
+    assert "bad.toml: line 3, column 7: malformed TOML" in other.message.value
+    assert other.config.values == ex.config.values
+    other.load(tmp_path / "missing.toml")
+    assert "configuration file not found" in other.message.value
+    other.save(tmp_path / "no_such_dir" / "x.toml")
+    assert "cannot write" in other.message.value

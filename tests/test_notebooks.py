@@ -1,0 +1,67 @@
+"""The notebooks: stored without outputs, small sample counts in their first cell, linked from the
+README, and executed top to bottom (each must finish; the claims in their text are asserted in
+their cells, so a changed number fails here)."""
+
+import ast
+import re
+from pathlib import Path
+
+import nbformat
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
+EXPECTED = ["01_quickstart", "02_waveforms_and_phases", "03_noise_and_sbi", "04_calibration",
+            "05_gradient_studies", "06_explorer"]
+
+
+def _read(path):
+    return nbformat.read(path, as_version=4)
+
+
+def test_the_six_notebooks_exist():
+    assert [p.stem for p in NOTEBOOKS] == EXPECTED
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+def test_stored_without_outputs(path):
+    nb = _read(path)
+    nbformat.validate(nb)
+    for i, cell in enumerate(nb.cells):
+        if cell.cell_type == "code":
+            assert cell.outputs == [] and cell.execution_count is None, (
+                f"{path.name} cell {i} has outputs: strip them (e.g. `nbstripout {path.relative_to(ROOT)}`)")
+    assert "widgets" not in nb.metadata, f"{path.name} stores widget state: strip it"
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+def test_first_code_cell_sets_small_sample_counts(path):
+    first = next(c for c in _read(path).cells if c.cell_type == "code")
+    tree = ast.parse(first.source)
+    assert tree.body, f"{path.name}: the first code cell is empty"
+    for node in tree.body:
+        assert isinstance(node, ast.Assign) and len(node.targets) == 1, f"{path.name}: only assignments"
+        name, value = node.targets[0], node.value
+        assert isinstance(name, ast.Name) and name.id.isupper(), f"{path.name}: upper-case names only"
+        assert isinstance(value, ast.Constant) and isinstance(value.value, int), f"{path.name}: integer counts"
+        assert 1 <= value.value <= 5000, f"{path.name}: {name.id} = {value.value} is not a small count"
+
+
+def test_readme_links_every_notebook_with_one_line():
+    readme = (ROOT / "README.md").read_text()
+    for path in NOTEBOOKS:
+        lines = [line for line in readme.splitlines() if f"notebooks/{path.name}" in line]
+        assert len(lines) == 1, f"README should link {path.name} on exactly one line"
+        assert re.search(r"\]\(notebooks/" + re.escape(path.name) + r"\)", lines[0])
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+def test_executes_top_to_bottom(path):
+    from nbclient import NotebookClient
+
+    nb = _read(path)
+    client = NotebookClient(nb, timeout=600, kernel_name="python3",
+                            resources={"metadata": {"path": str(path.parent)}})
+    client.execute()  # raises CellExecutionError with the failing cell and its traceback
+    errors = [o for c in nb.cells if c.cell_type == "code" for o in c.outputs if o.output_type == "error"]
+    assert not errors

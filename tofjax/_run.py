@@ -1,0 +1,65 @@
+"""One sweep run from a configuration, as ``tofjax simulate`` and the explorer do it.
+
+Picks the path from the configuration and the method: several modulation frequencies -> Monte
+Carlo per frequency and unwrapping by agreement (§2.2); otherwise Monte Carlo (:func:`simulate`)
+or analytic (:func:`predict`). Results come back on the host, with the wall time of the run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import jax
+
+from ._config import Config
+from ._model import predict, simulate
+from ._multifrequency import MultiFrequencyResult, simulate_multifrequency
+from ._result import Result
+from ._sweep import Sweep
+
+METHODS = ("mc", "analytic")
+
+
+@dataclasses.dataclass(frozen=True)
+class Run:
+    """A finished sweep: ``result`` (the first modulation frequency's when there are several),
+    ``multifrequency`` (``None`` for one frequency), and ``elapsed_s`` (wall time, compilation
+    included)."""
+
+    config: Config
+    sweep: Sweep
+    method: str
+    iterations: int
+    seed: int
+    result: Result
+    multifrequency: MultiFrequencyResult | None
+    elapsed_s: float
+
+
+def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int | None = None, seed: int = 0,
+              fixed_pattern: bool = False) -> Run:
+    """Run ``sweep`` with ``config``: ``method`` ``"mc"`` or ``"analytic"``; ``iterations`` frames per
+    sample (default ``pixel.iterations``); ``seed`` of the Monte Carlo.
+
+    Raises ``ValueError`` for an unknown method, and for several modulation frequencies with the
+    analytic method (range extension is a per-frame decision, so it needs frames).
+    """
+    if method not in METHODS:
+        raise ValueError(f"method = {method!r} is not allowed: expected one of {', '.join(map(repr, METHODS))}")
+    iterations = config.iterations if iterations is None else iterations
+    params, freqs = config.params, config.modulation_frequencies_hz
+    if len(freqs) > 1 and method != "mc":
+        raise ValueError("several modulation frequencies (illumination_waveform.extra_modulation_frequencies_hz) "
+                         "need the Monte Carlo method (mc)")
+    t0 = time.perf_counter()
+    multi = None
+    if len(freqs) > 1:
+        multi = jax.device_get(simulate_multifrequency(params, sweep, jax.random.key(seed), iterations, freqs))
+        result = jax.tree_util.tree_map(lambda x: x[0], multi.per_frequency)
+    elif method == "mc":
+        result = simulate(params, sweep, jax.random.key(seed), iterations, fixed_pattern=fixed_pattern)
+    else:
+        result = predict(params, sweep)
+    result = jax.device_get(result)
+    return Run(config, sweep, method, iterations, seed, result, multi, time.perf_counter() - t0)
