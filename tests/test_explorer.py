@@ -72,6 +72,9 @@ def test_a_change_updates_the_configuration_and_the_previews():
     assert ex.preview["spot_area_m2"] == pytest.approx(math.pi * math.tan(math.radians(30)) ** 2, rel=1e-12)
     field = ex.fields["illumination.fov_deg"]
     assert field.inputs[2].layout.display == "none"
+    others = [x for f in ex.fields.values() if f is not field
+              for x in (f.inputs[:2] if f.key.kind == "angle" else f.inputs)]
+    assert all(x.layout.display is None for x in others)  # hiding one input hides no other
     field.mode.value = "hv"
     _set(ex, "illumination.fov_deg", 40.0, index=2)
     assert ex.config.values["illumination"]["fov_deg"] == [60.0, 40.0]

@@ -52,8 +52,15 @@ _TAB_SECTIONS = {
 _CONSTANT_UNITS = {"boltzmann_j_per_k": "J/K", "elementary_charge_c": "C", "speed_of_light_m_per_s": "m/s",
                    "planck_j_s": "J s", "luminous_efficacy_lm_per_w": "lm/W"}
 _DESCRIPTION = {"description_width": "210px"}
-_WIDE = w.Layout(width="380px")
-_NARROW = w.Layout(width="170px")
+
+
+def _wide() -> w.Layout:  # a new Layout per widget: a shared one would hide/show them all together
+    return w.Layout(width="380px")
+
+
+def _narrow() -> w.Layout:
+    return w.Layout(width="170px")
+
 _READY = '<span style="color:#2a2">&#9679;</span> ready'
 _BUSY = '<span style="color:#d22">&#9679;</span> busy'
 
@@ -70,27 +77,27 @@ class _Field:
         common = dict(description=key.name, style=_DESCRIPTION, tooltip=key.doc)
         self.mode = None
         if key.kind == "float":
-            self.inputs = [w.FloatText(value=value, layout=_WIDE, **common)]
+            self.inputs = [w.FloatText(value=value, layout=_wide(), **common)]
         elif key.kind == "int":
-            self.inputs = [w.IntText(value=value, layout=_WIDE, **common)]
+            self.inputs = [w.IntText(value=value, layout=_wide(), **common)]
         elif key.kind == "bool":
             self.inputs = [w.Checkbox(value=value, indent=True, **common)]
         elif key.kind == "choice":
-            self.inputs = [w.Dropdown(options=key.choices, value=value, layout=_WIDE, **common)]
+            self.inputs = [w.Dropdown(options=key.choices, value=value, layout=_wide(), **common)]
         elif key.kind == "float_list":
             self.inputs = [w.Text(value=", ".join(repr(v) for v in value), placeholder="empty, or e.g. 60.24e6",
-                                  layout=_WIDE, **common)]
+                                  layout=_wide(), **common)]
         elif key.kind == "pair":
-            self.inputs = [w.FloatText(value=value[0], layout=_WIDE, **{**common, "description": key.name + " x"}),
-                           w.FloatText(value=value[1], layout=_NARROW, description="y", style={"description_width": "15px"})]
+            self.inputs = [w.FloatText(value=value[0], layout=_wide(), **{**common, "description": key.name + " x"}),
+                           w.FloatText(value=value[1], layout=_narrow(), description="y", style={"description_width": "15px"})]
         else:  # angle: diagonal (one number) or [horizontal, vertical], the thesis' switch (§4.3)
             first, second = (value, value) if np.ndim(value) == 0 else value
             self.mode = w.ToggleButtons(options=[("diagonal", "diagonal"), ("h x v", "hv")],
                                         value="diagonal" if np.ndim(value) == 0 else "hv",
                                         description=key.name, style={**_DESCRIPTION, "button_width": "80px"},
                                         tooltip=key.doc)
-            self.inputs = [self.mode, w.FloatText(value=first, layout=_NARROW),
-                           w.FloatText(value=second, layout=_NARROW)]
+            self.inputs = [self.mode, w.FloatText(value=first, layout=_narrow()),
+                           w.FloatText(value=second, layout=_narrow())]
             self.mode.observe(lambda _change: self._show_second(), names="value")
             self._show_second()
         self.note = w.HTML(f"<small>[{html.escape(key.unit)}] {html.escape(key.range_text())}</small>")
@@ -165,11 +172,11 @@ class Explorer:
         self.fields = {k.dotted: _Field(k, self._raw[k.section][k.name], self._changed) for k in KEYS}
 
         self.sweep = w.Dropdown(options=SWEEP_CHOICES, value="distance", description="sweep", style=_DESCRIPTION,
-                                layout=_WIDE)
+                                layout=_wide())
         self.method = w.ToggleButtons(options=[("Monte Carlo", "mc"), ("analytic", "analytic")], value="mc",
                                       description="method", style=_DESCRIPTION,
                                       tooltip="analytic: propagated variances, ~40x faster; Monte Carlo: frames")
-        self.seed = w.IntText(value=0, description="seed", style=_DESCRIPTION, layout=_WIDE)
+        self.seed = w.IntText(value=0, description="seed", style=_DESCRIPTION, layout=_wide())
         self.plot_checkboxes = {
             name: w.Checkbox(value=name in DEFAULT_PLOTS, description=f"{name.replace('_', ' ')} ({ref})",
                              indent=False, layout=w.Layout(width="340px"))
@@ -178,7 +185,7 @@ class Explorer:
         self.calculate_button = w.Button(description="Calculate", button_style="primary", icon="play")
         self.lamp = w.HTML(_READY)
         self.time_label = w.HTML("")
-        self.path = w.Text(value="camera.toml", description="TOML file", style=_DESCRIPTION, layout=_WIDE)
+        self.path = w.Text(value="camera.toml", description="TOML file", style=_DESCRIPTION, layout=_wide())
         self.load_button = w.Button(description="Load", icon="folder-open")
         self.save_button = w.Button(description="Save", icon="save")
         self.message = w.HTML("")

@@ -51,7 +51,7 @@ def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int 
     params, freqs = config.params, config.modulation_frequencies_hz
     if len(freqs) > 1 and method != "mc":
         raise ValueError("several modulation frequencies (illumination_waveform.extra_modulation_frequencies_hz) "
-                         "need the Monte Carlo method (mc)")
+                         "need the Monte Carlo method (mc; on the command line: --method mc)")
     t0 = time.perf_counter()
     multi = None
     if len(freqs) > 1:

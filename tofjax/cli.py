@@ -209,9 +209,6 @@ def _simulate(args) -> int:
     params = config.params
     iterations = args.iterations or config.iterations
     freqs = config.modulation_frequencies_hz
-    if len(freqs) > 1 and args.method != "mc":
-        raise _UsageError("several modulation frequencies (illumination_waveform.extra_modulation_frequencies_hz) "
-                          "need --method mc")
     label = f"simulating {sweep.samples} samples" + (f" x {iterations} frames" if args.method == "mc" else "")
     with _Status(label):
         run = run_sweep(config, sweep, args.method, iterations, args.seed, args.fixed_pattern)
