@@ -2,27 +2,44 @@
 
 Least squares with optimistix (Levenberg-Marquardt) and posterior sampling with emcee, on the
 whitened residuals of amplitude and depth noise rows of tofjax-sweep files. The command line is
-``tofjax calibrate``; this package is its Python API.
+``tofjax calibrate``; this package is its Python API. Names load on first use (so that ``tofjax
+--help``, which registers the subcommand, imports neither JAX nor emcee).
 """
 
-import tofjax as _tofjax  # noqa: F401  (float64 on)
+from __future__ import annotations
 
-from ._calibrate import Calibration as Calibration, calibrate as calibrate
-from ._data import SweepRows as SweepRows, load_rows as load_rows
-from ._least_squares import (
-    ConvergenceError as ConvergenceError,
-    LeastSquaresResult as LeastSquaresResult,
-    fit_least_squares as fit_least_squares,
-)
-from ._parameters import (
-    CalibrationInputError as CalibrationInputError,
-    FreeParameter as FreeParameter,
-    fittable_names as fittable_names,
-    make_parameters as make_parameters,
-)
-from ._posterior import (
-    PosteriorResult as PosteriorResult,
-    ShortChainWarning as ShortChainWarning,
-    sample_posterior as sample_posterior,
-)
-from ._problem import Problem as Problem, build_problem as build_problem
+import importlib
+from typing import TYPE_CHECKING
+
+_EXPORTS = {
+    "Calibration": "_calibrate", "calibrate": "_calibrate",
+    "SweepRows": "_data", "load_rows": "_data",
+    "ConvergenceError": "_least_squares", "LeastSquaresResult": "_least_squares",
+    "fit_least_squares": "_least_squares",
+    "CalibrationInputError": "_parameters", "FreeParameter": "_parameters", "fittable_names": "_parameters",
+    "make_parameters": "_parameters",
+    "PosteriorResult": "_posterior", "ShortChainWarning": "_posterior", "sample_posterior": "_posterior",
+    "Problem": "_problem", "build_problem": "_problem",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'fitting' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_EXPORTS])
+
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ._calibrate import Calibration, calibrate  # noqa: F401
+    from ._data import SweepRows, load_rows  # noqa: F401
+    from ._least_squares import ConvergenceError, LeastSquaresResult, fit_least_squares  # noqa: F401
+    from ._parameters import CalibrationInputError, FreeParameter, fittable_names, make_parameters  # noqa: F401
+    from ._posterior import PosteriorResult, ShortChainWarning, sample_posterior  # noqa: F401
+    from ._problem import Problem, build_problem  # noqa: F401

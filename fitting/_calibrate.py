@@ -16,19 +16,20 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import tofjax as tj
-from tofjax._config import render_toml
+from tofjax.schema import get_leaf, render_toml
 from tofjax.sweepfile import utc_now
 
 from ._data import OBSERVABLES, SweepRows, load_rows
 from ._least_squares import LeastSquaresResult, fit_least_squares
 from ._parameters import make_parameters
 from ._posterior import PosteriorResult, sample_posterior
-from ._problem import Problem, build_problem, evaluate
+from ._problem import Problem, batched_curves, build_problem
 
 _AXIS = {"distance": ("distance [m]", 1.0), "illuminance": ("background illuminance [lx]", 1.0),
          "integration_time": ("integration time [ms]", 1e3)}
 _LABEL = {"amplitude_mean_lsb": "amplitude [LSB]", "depth_std_m": "depth noise [mm]"}
 _SCALE = {"amplitude_mean_lsb": 1.0, "depth_std_m": 1e3}
+_COLUMN = {"distance": "distance_m", "illuminance": "illuminance_lx", "integration_time": "integration_time_s"}
 
 
 @dataclasses.dataclass
@@ -105,10 +106,10 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
         raise ValueError("no sweep file given")
     rows = [load_rows(p, config, relative_error=relative_error, min_snr=min_snr) for p in paths]
     names = [fit] if isinstance(fit, str) else list(fit)
-    initial = {name: float(_leaf(config.params, name)) for name in names if _known(name)}
+    initial = {name: float(get_leaf(config.params, name)) for name in names if _known(name)}
     parameters = make_parameters(names, initial, bounds, priors)
     problem = build_problem(parameters, rows, smooth, relative_error)
-    ls = fit_least_squares(problem, max_steps=max_steps, paths=[r.path for r in rows])
+    ls = fit_least_squares(problem, rows, max_steps=max_steps)
     post = None
     if mcmc:
         post = sample_posterior(problem, ls, walkers=walkers, steps=steps, seed=seed, backend_path=backend,
@@ -122,70 +123,52 @@ def _known(name: str) -> bool:
     return name in fittable_names()
 
 
-def _leaf(params: tj.Params, name: str):
-    section, field = name.split(".")
-    return getattr(getattr(params, section), field)
+def _bands(cal: Calibration):
+    """Per file: (dense x in SI units, model curves (2, n) at the estimate, 68 % band lo and hi or None).
 
-
-def _dense_sweep(rows: SweepRows, n: int = 160) -> tj.Sweep:
-    s = rows.sweep
-    order = np.argsort(np.asarray(s.values))
-    x = np.asarray(s.values)[order]
-    grid = np.linspace(x[0], x[-1], n) if x[-1] > x[0] else x[:1]
-    cols = {name: np.interp(grid, x, np.asarray(getattr(s, name))[order])
-            for name in ("distance_m", "illuminance_lx", "integration_time_s")}
-    return tj.Sweep.points(s.variable, cols["distance_m"], cols["illuminance_lx"], cols["integration_time_s"])
-
-
-def _curve(theta, problem: Problem, i: int, sweep: tj.Sweep):
-    r = problem.predict(theta, i, sweep)
-    return jnp.stack([r.amplitude_mean_lsb, r.depth_std_m])
-
-
-_curve_jit = eqx.filter_jit(_curve)
-_curves_batch = eqx.filter_jit(lambda thetas, problem, i, sweep: jax.vmap(_curve, in_axes=(0, None, None, None))(
-    thetas, problem, i, sweep))
-_curve_jacobian = eqx.filter_jit(lambda theta, problem, i, sweep: jax.jacfwd(_curve)(theta, problem, i, sweep))
-
-
-def _curves(cal: Calibration, i: int, sweep: tj.Sweep):
-    """Model curves at the estimate and their 68 % band (posterior percentiles, or linear
-    propagation of the least-squares covariance; None where a parameter is undetermined)."""
+    The band comes from posterior draws, or from linear propagation of the least-squares covariance
+    (None where a parameter is undetermined)."""
     problem, ls = cal.problem, cal.least_squares
-    estimate = jnp.asarray(ls.estimate)
-    centre = np.asarray(_curve_jit(estimate, problem, i, sweep))
+    lin = ls.linearization
     if cal.posterior is not None:
         rng = np.random.default_rng(0)
         draws = cal.posterior.samples[rng.choice(len(cal.posterior.samples), size=min(200, len(cal.posterior.samples)),
                                                  replace=False)]
-        curves = np.asarray(_curves_batch(jnp.asarray(draws), problem, i, sweep))
-        return centre, np.percentile(curves, 16, axis=0), np.percentile(curves, 84, axis=0)
-    if not np.all(np.isfinite(ls.covariance)):
-        return centre, None, None
-    jac = np.asarray(_curve_jacobian(estimate, problem, i, sweep))  # (2, n, params)
-    sd = np.sqrt(np.einsum("oip,pq,oiq->oi", jac, ls.covariance, jac))
-    return centre, centre - sd, centre + sd
+        per_draw = jax.device_get(batched_curves(problem, jnp.asarray(draws)))
+        limits = [(np.percentile(c, 16, axis=0), np.percentile(c, 84, axis=0)) for c in per_draw]
+    elif np.all(np.isfinite(ls.unconstrained_covariance)):
+        limits = []
+        for centre, jac in zip(lin.curves, lin.curves_jacobian, strict=True):  # jac: (files, 2, n, params) in u
+            sd = np.sqrt(np.einsum("foip,pq,foiq->foi", jac, ls.unconstrained_covariance, jac))
+            limits.append((centre - sd, centre + sd))
+    else:
+        limits = [(None, None)] * len(problem.groups)
+    out = {}
+    for group, centre, (lo, hi) in zip(problem.groups, lin.curves, limits, strict=True):
+        for k, i in enumerate(group.files):
+            column = np.asarray(getattr(group.sweep, _COLUMN[cal.rows[i].sweep_variable]))[group.n_data:]
+            out[i] = (column.reshape(len(group.files), -1)[k], np.asarray(centre)[k],
+                      None if lo is None else lo[k], None if hi is None else hi[k])
+    return out
 
 
 def _figures(cal: Calibration, out: Path) -> list[Path]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     written = []
+    bands = _bands(cal)
     for i, rows in enumerate(cal.rows):
         label, xs = _AXIS[rows.sweep_variable]
-        dense = _dense_sweep(rows)
-        centre, lo, hi = _curves(cal, i, dense)
+        dense_x, centre, lo, hi = bands[i]
         x_all = np.asarray(rows.sweep.values) * xs
-        fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
-        evaluated = evaluate(cal.problem, jnp.asarray(cal.least_squares.estimate))[i]
+        fig = Figure(figsize=(11, 4.2), layout="constrained")
+        axes = fig.subplots(1, 2)
+        evaluated = cal.least_squares.evaluated[i]
         for k, (ax, name) in enumerate(zip(axes, OBSERVABLES, strict=True)):
             idx = rows.used(name)
             values, sigma = rows.data[name][0][idx], np.asarray(evaluated[k][1])[idx]
             scale = _SCALE[name]
-            xd = np.asarray(dense.values) * xs
+            xd = dense_x * xs
             if lo is not None:
                 ax.fill_between(xd, lo[k] * scale, hi[k] * scale, color="C1", alpha=0.3, label="model 68 % band")
             ax.plot(xd, centre[k] * scale, color="C1", label="fitted model")
@@ -197,12 +180,11 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
         fig.suptitle(Path(rows.path).name)
         path = out / f"fit_{i}_{Path(rows.path).stem}.png"
         fig.savefig(path, dpi=110)
-        plt.close(fig)
         written.append(path)
 
-    evaluated = evaluate(cal.problem, jnp.asarray(cal.least_squares.estimate))
-    fig, axes = plt.subplots(len(cal.rows), 1, figsize=(8, 2.6 * len(cal.rows)), squeeze=False,
-                             constrained_layout=True)
+    evaluated = cal.least_squares.evaluated
+    fig = Figure(figsize=(8, 2.6 * len(cal.rows)), layout="constrained")
+    axes = fig.subplots(len(cal.rows), 1, squeeze=False)
     for i, rows in enumerate(cal.rows):
         ax = axes[i, 0]
         label, xs = _AXIS[rows.sweep_variable]
@@ -220,19 +202,18 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
         ax.legend(fontsize=8)
     path = out / "residuals.png"
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     written.append(path)
 
     if cal.posterior is not None and len(cal.posterior.samples) > len(cal.posterior.names):
         import corner
 
+        size = 3.2 * len(cal.posterior.names)
         fig = corner.corner(cal.posterior.samples, labels=[n.split(".")[1] for n in cal.posterior.names],
                             truths=cal.least_squares.estimate, quantiles=[0.16, 0.5, 0.84], show_titles=True,
-                            title_fmt=".4g", title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 8})
-        fig.set_size_inches(3.2 * len(cal.posterior.names), 3.2 * len(cal.posterior.names))
+                            title_fmt=".4g", title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 8},
+                            fig=Figure(figsize=(size, size)))
         path = out / "corner.png"
         fig.savefig(path, dpi=100)
-        plt.close(fig)
         written.append(path)
     return written
 

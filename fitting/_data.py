@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import tofjax as tj
 from tofjax import sweepfile as sf
-from tofjax._schema import KEY_BY_DOTTED, coerce
+from tofjax.schema import KEY_BY_DOTTED, coerce
 
 from ._parameters import CalibrationInputError
 

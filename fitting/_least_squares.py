@@ -1,6 +1,12 @@
 """Least squares with optimistix Levenberg-Marquardt, covariance from the Jacobian, and a report
 of what the data cannot separate.
 
+The solver steps on the problem's one compiled linearisation (:func:`fitting._problem.linearize`:
+residuals and their Jacobian): optimistix sees a residual function whose value and Jacobian-vector
+product come from that program (a host callback with a custom JVP), so the model is compiled once
+for the whole calibration, and the solution's linearisation is the one the covariance, the residual
+summary and the figures use.
+
 The covariance is (J^T J)^-1 of the whitened residuals in the parameters' own units, computed on
 the correlation scale (J^T J normalised by its diagonal) so that parameters of very different
 magnitude (fF and V) do not ruin the conditioning. Directions whose eigenvalue is below 1e-10 of
@@ -19,7 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from ._problem import Problem, evaluate, jacobian_theta, residuals
+from ._problem import Linearization, Problem, linearize
 
 #: Parameters that only scale the number of photo-electrons (signal and background alike,
 #: Eqs 3.11 and 3.18): their product is what the data measure.
@@ -56,6 +62,13 @@ class LeastSquaresResult:
     condition_number: float
     degeneracies: list[str]
     residual_summary: list[dict]
+    #: The problem's linearisation at the estimate (model values, dense curves and their Jacobians).
+    linearization: Linearization | None = None
+
+    @property
+    def evaluated(self):
+        """Per file and observable, (model value, row uncertainty) at the estimate."""
+        return self.linearization.evaluated
 
     @property
     def chi2_per_dof(self) -> float:
@@ -126,15 +139,14 @@ def _correlation(cov: np.ndarray) -> np.ndarray:
     return corr
 
 
-def _summaries(problem: Problem, theta, paths) -> list[dict]:
+def _summaries(evaluated, paths, rows) -> list[dict]:
     from ._data import OBSERVABLES
 
-    evaluated = evaluate(problem, jnp.asarray(theta))
     out = []
-    for path, per_file, v_file, masks in zip(paths, evaluated, problem.values, problem.masks, strict=True):
-        for name, (m, s), v, mask in zip(OBSERVABLES, per_file, v_file, masks, strict=True):
-            mask = np.asarray(mask)
-            r = ((np.asarray(m) - np.asarray(v)) / np.asarray(s))[mask]
+    for path, per_file, file_rows in zip(paths, evaluated, rows, strict=True):
+        for name, (m, s) in zip(OBSERVABLES, per_file, strict=True):
+            values, mask = file_rows.data[name]
+            r = ((np.asarray(m) - np.where(mask, values, 0.0)) / np.asarray(s))[mask]
             if r.size == 0:
                 continue
             out.append({"file": path, "observable": name, "rows": int(r.size), "rms": float(np.sqrt(np.mean(r**2))),
@@ -142,32 +154,34 @@ def _summaries(problem: Problem, theta, paths) -> list[dict]:
     return out
 
 
-def fit_least_squares(problem: Problem, *, max_steps: int = 256, rtol: float = 1e-8, atol: float = 1e-8,
-                      throw: bool = True, paths=None) -> LeastSquaresResult:
+def fit_least_squares(problem: Problem, rows, *, max_steps: int = 256, rtol: float = 1e-8, atol: float = 1e-8,
+                      throw: bool = True) -> LeastSquaresResult:
     """Fit ``problem`` by Levenberg-Marquardt (optimistix) from the configuration's values.
 
     **Arguments:**
-    - ``problem``: from :func:`fitting.build_problem`; ``paths``: the files' names for the
-      residual summary (default: file 0, 1, ...).
+    - ``problem``: from :func:`fitting.build_problem`; ``rows``: its files
+      (:class:`fitting.SweepRows`, for the residual summary).
     - ``max_steps``, ``rtol``, ``atol``: solver limits and tolerances.
     - ``throw``: raise :class:`ConvergenceError` if the solver did not converge (default); with
       ``False`` the result has ``converged = False`` and is returned for inspection.
     """
-    n_params = len(problem.parameters)
+    n_params = problem.n_params
     dof = problem.n_residuals - n_params
     if problem.n_residuals < n_params:
         raise ValueError(f"{problem.n_residuals} residuals cannot determine {n_params} parameters")
     solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
-    sol = optx.least_squares(residuals, solver, problem.initial_unconstrained(), args=problem, max_steps=max_steps,
+    sol = optx.least_squares(_residual_function(problem), solver, problem.initial_unconstrained(), max_steps=max_steps,
                              throw=False)
     converged = bool(sol.result == optx.RESULTS.successful)
     message = optx.RESULTS[sol.result] if not converged else "successful"
     steps = int(sol.stats["num_steps"])
     if not converged and throw:
         raise ConvergenceError(f"least squares did not converge after {steps} steps: {message}")
-    u = sol.value
-    theta = problem.constrained(u)
-    jac_theta = np.asarray(jacobian_theta(problem, theta))
+    u = np.asarray(sol.value)
+    lin = jax.device_get(linearize(problem, u))  # the callback's program (a host array in)
+    theta, r, dtheta = lin.theta, lin.residuals, lin.dtheta_du
+    with np.errstate(invalid="ignore", divide="ignore"):
+        jac_theta = lin.jacobian / dtheta
     if not np.all(np.isfinite(jac_theta)):
         raise ConvergenceError("the Jacobian at the solution is not finite; the fit cannot be trusted")
     names = problem.names
@@ -177,15 +191,45 @@ def fit_least_squares(problem: Problem, *, max_steps: int = 256, rtol: float = 1
         if np.isfinite(corr[i, j]) and abs(corr[i, j]) > CORRELATION_LIMIT:
             messages.append(f"{names[i]} and {names[j]} are strongly correlated (correlation {corr[i, j]:+.3f}): "
                             f"{_explain(names[i], names[j])}; their individual sigmas are large")
-    dtheta = np.asarray(jax.jacfwd(problem.constrained)(u)).diagonal()
     with np.errstate(invalid="ignore", divide="ignore"):
         cov_u = cov / np.outer(dtheta, dtheta)
-    r = np.asarray(residuals(u, problem))
     return LeastSquaresResult(
-        names=names, units=tuple(p.unit for p in problem.parameters),
-        initial=np.array([p.initial for p in problem.parameters]), estimate=np.asarray(theta),
+        names=names, units=problem.units, initial=np.asarray(problem.initial), estimate=np.asarray(theta),
         sigma=np.sqrt(np.diag(cov)), covariance=cov, correlation=corr, unconstrained=np.asarray(u),
         unconstrained_covariance=cov_u, chi2=float(np.sum(r**2)), dof=dof, converged=converged, steps=steps,
         solver_message=message, condition_number=condition, degeneracies=messages,
-        residual_summary=_summaries(problem, theta, paths or [f"file {i}" for i in range(len(problem.bases))]),
+        residual_summary=_summaries(lin.evaluated, [file.path for file in rows], rows), linearization=lin,
     )
+
+
+def _residual_function(problem: Problem):
+    """The residuals of ``problem`` as a function of the unconstrained parameters, for optimistix:
+    value and Jacobian from the compiled :func:`fitting._problem.linearize` (a host callback, cached
+    per point), with a custom JVP J @ du."""
+    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+    def host(u):
+        key = np.asarray(u).tobytes()
+        if key not in cache:
+            cache.clear()
+            # JAX runs callbacks under a default-device context; leave it so the compiled program is
+            # the one the caller uses too (the context is part of the compilation key).
+            with jax.default_device(None):
+                lin = linearize(problem, np.array(u, dtype=np.float64))
+            cache[key] = (np.asarray(lin.residuals), np.asarray(lin.jacobian))
+        return cache[key]
+
+    n = sum(int(np.size(m)) for g in problem.groups for m in g.masks)
+    shapes = (jax.ShapeDtypeStruct((n,), jnp.float64), jax.ShapeDtypeStruct((n, problem.n_params), jnp.float64))
+
+    @jax.custom_jvp
+    def fn(u):
+        return jax.pure_callback(host, shapes, u, vmap_method="sequential")[0]
+
+    @fn.defjvp
+    def fn_jvp(primals, tangents):
+        (u,), (du,) = primals, tangents
+        r, jac = jax.pure_callback(host, shapes, u, vmap_method="sequential")
+        return r, jac @ du
+
+    return lambda u, args: fn(u)

@@ -12,22 +12,16 @@ import math
 
 import jax
 import jax.numpy as jnp
-from tofjax._params import SECTION_CLASSES
-from tofjax._schema import KEY_BY_DOTTED, KEYS, suggest
+from tofjax.schema import KEY_BY_DOTTED, float_leaf_names, suggest
 
 #: Operating-point quantities: per-row inputs of a sweep file, never fitted.
 OPERATING_POINT = ("scene.distance_m", "scene.illuminance_lx", "scene.integration_time_s")
 
 
 def fittable_names() -> tuple[str, ...]:
-    """Every float configuration key that is a field of the parameter pytree."""
-    out = []
-    for key in KEYS:
-        cls = SECTION_CLASSES.get(key.section)
-        if key.kind == "float" and cls is not None and key.name in cls.__dataclass_fields__ \
-                and key.dotted not in OPERATING_POINT:
-            out.append(key.dotted)
-    return tuple(out)
+    """Every float configuration key that is a leaf of the parameter pytree, except the operating
+    point (a per-row input of the sweep files)."""
+    return tuple(name for name in float_leaf_names() if name not in OPERATING_POINT)
 
 
 class CalibrationInputError(ValueError):

@@ -86,7 +86,7 @@ def sample_posterior(problem: Problem, least_squares: LeastSquaresResult, *, wal
       continued for ``steps`` more steps.
     - ``progress``: show emcee's progress bar.
     """
-    ndim = len(problem.parameters)
+    ndim = problem.n_params
     if walkers < 2 * ndim or walkers % 2:
         raise ValueError(f"walkers = {walkers} is out of range: allowed an even number >= {2 * ndim} "
                          f"(2 x {ndim} parameters)")

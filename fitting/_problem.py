@@ -3,6 +3,17 @@
 The model side is :func:`tofjax.predict` (analytic path) in the smooth mode, so the residuals are
 differentiable everywhere, including near saturation. Residual = (model - data) / sigma, for the
 amplitude (LSB) and the depth standard deviation (m) of every row that enters the fit.
+
+Compiled once per structure. Files taken with the same camera (equal parameters; they differ only in
+their operating points, which are per-row inputs) form a group whose rows are concatenated into one
+sweep, so one :func:`tofjax.predict` evaluates the whole group; the dense curves the figures draw
+(:data:`DENSE_POINTS` per file) ride along as extra rows of the same call. Bounds, priors, starting
+values, operating points and data are arrays, so a new data set of the same shape, or other bounds,
+reuse the compiled programs; only the parameter names, the groups and the row counts are structure.
+
+One program, :func:`linearize`, gives the residuals, their Jacobian, the model values and the dense
+curves with their Jacobian at a point: the least squares (:mod:`fitting._least_squares`) steps on it,
+and the covariance, the residual summary and the figures read it at the solution.
 """
 
 from __future__ import annotations
@@ -13,9 +24,78 @@ import jax.numpy as jnp
 import numpy as np
 import tofjax as tj
 from jaxtyping import Array, Float
+from tofjax.schema import set_leaves
 
 from ._data import OBSERVABLES, SweepRows
 from ._parameters import FreeParameter
+
+#: Points of the dense model curve per file (the figures).
+DENSE_POINTS = 160
+_OPERATING_POINT = ("distance_m", "illuminance_lx", "integration_time_s")
+
+
+def dense_sweep(rows: SweepRows, n: int = DENSE_POINTS) -> dict[str, np.ndarray]:
+    """Operating points along a file's swept quantity, ``n`` of them, interpolated between its rows."""
+    s = rows.sweep
+    order = np.argsort(np.asarray(s.values))
+    x = np.asarray(s.values)[order]
+    grid = np.linspace(x[0], x[-1], n)
+    return {name: np.interp(grid, x, np.asarray(getattr(s, name))[order]) for name in _OPERATING_POINT}
+
+
+class FileGroup(eqx.Module):
+    """Files taken with one camera, their rows concatenated.
+
+    ``files`` (static) are the files' indices in the problem and ``bounds`` their row ranges in the
+    group; ``params`` the camera; ``sweep`` the concatenated operating points, the data rows first
+    (``n_data`` of them), then :data:`DENSE_POINTS` dense points per file; ``values`` and ``masks``
+    per observable, and ``frames``, over the data rows.
+    """
+
+    files: tuple[int, ...] = eqx.field(static=True)
+    bounds: tuple[tuple[int, int], ...] = eqx.field(static=True)
+    n_data: int = eqx.field(static=True)
+    params: tj.Params
+    sweep: tj.Sweep
+    values: tuple[Array, ...]
+    masks: tuple[Array, ...]
+    frames: Array
+
+    def data_sweep(self) -> tj.Sweep:
+        return tj.Sweep.points("distance", *(getattr(self.sweep, name)[: self.n_data] for name in _OPERATING_POINT))
+
+
+def _same_camera(a: tj.Params, b: tj.Params) -> bool:
+    leaves_a, tree_a = jax.tree_util.tree_flatten(a)
+    leaves_b, tree_b = jax.tree_util.tree_flatten(b)
+    return tree_a == tree_b and all(np.array_equal(np.asarray(x), np.asarray(y)) for x, y in zip(leaves_a, leaves_b))
+
+
+def _groups(rows: list[SweepRows]) -> tuple[FileGroup, ...]:
+    members: list[list[int]] = []
+    for i, r in enumerate(rows):
+        for group in members:
+            if _same_camera(rows[group[0]].params, r.params):
+                group.append(i)
+                break
+        else:
+            members.append([i])
+    groups = []
+    for group in members:
+        cat = lambda xs: jnp.asarray(np.concatenate([np.asarray(x) for x in xs]))  # noqa: E731
+        dense = [dense_sweep(rows[i]) for i in group]
+        columns = {name: cat([getattr(rows[i].sweep, name) for i in group] + [d[name] for d in dense])
+                   for name in _OPERATING_POINT}
+        ends = np.cumsum([rows[i].n_rows for i in group])
+        groups.append(FileGroup(
+            files=tuple(group), bounds=tuple((int(e - rows[i].n_rows), int(e)) for i, e in zip(group, ends, strict=True)),
+            n_data=int(ends[-1]), params=rows[group[0]].params,
+            # The swept variable only names the rows' order; the concatenated rows are operating points.
+            sweep=tj.Sweep.points("distance", **columns),
+            values=tuple(cat([np.where(rows[i].data[o][1], rows[i].data[o][0], 0.0) for i in group]) for o in OBSERVABLES),
+            masks=tuple(cat([rows[i].data[o][1] for i in group]) for o in OBSERVABLES),
+            frames=cat([np.asarray(rows[i].frames, dtype=float) for i in group])))
+    return tuple(groups)
 
 
 class Problem(eqx.Module):
@@ -26,74 +106,123 @@ class Problem(eqx.Module):
     realisation does not recompile.
     """
 
-    parameters: tuple[FreeParameter, ...] = eqx.field(static=True)
-    relative_error: float | None = eqx.field(static=True)
-    bases: tuple[tj.Params, ...]
-    sweeps: tuple[tj.Sweep, ...]
-    values: tuple[tuple[Array, ...], ...]
-    masks: tuple[tuple[Array, ...], ...]
-    frames: tuple[Array, ...]
+    names: tuple[str, ...] = eqx.field(static=True)
+    units: tuple[str, ...] = eqx.field(static=True)
+    kinds: tuple[str, ...] = eqx.field(static=True)
+    has_relative_error: bool = eqx.field(static=True)
+    lower: Float[Array, " params"]
+    upper: Float[Array, " params"]
+    initial: Float[Array, " params"]
+    prior_mean: Float[Array, " params"]
+    prior_sigma: Float[Array, " params"]
+    relative_error: Float[Array, ""]
+    groups: tuple[FileGroup, ...]
     smooth: tj.Smooth
 
     @property
-    def names(self) -> tuple[str, ...]:
-        return tuple(p.name for p in self.parameters)
+    def n_params(self) -> int:
+        return len(self.names)
+
+    @property
+    def n_files(self) -> int:
+        return sum(len(g.files) for g in self.groups)
 
     @property
     def n_residuals(self) -> int:
-        return sum(int(np.sum(m)) for per_file in self.masks for m in per_file)
+        return sum(int(np.sum(np.asarray(m))) for g in self.groups for m in g.masks)
+
+    # --- the bound transforms: theta = lo + (hi - lo) sigmoid(u), lo + exp(u), or u (FreeParameter)
+    def unconstrained(self, theta: Float[Array, " params"]) -> Float[Array, " params"]:
+        out = []
+        for i, kind in enumerate(self.kinds):
+            if kind == "both":
+                x = (theta[i] - self.lower[i]) / (self.upper[i] - self.lower[i])
+                out.append(jnp.log(x) - jnp.log1p(-x))
+            elif kind == "lower":
+                out.append(jnp.log(theta[i] - self.lower[i]))
+            else:
+                out.append(theta[i])
+        return jnp.stack(out)
 
     def initial_unconstrained(self) -> Float[Array, " params"]:
-        return jnp.asarray([p.to_unconstrained(p.initial) for p in self.parameters])
+        return self.unconstrained(self.initial)
 
     def constrained(self, u: Float[Array, " params"]) -> Float[Array, " params"]:
-        return jnp.stack([p.to_constrained(u[i]) for i, p in enumerate(self.parameters)])
+        out = []
+        for i, kind in enumerate(self.kinds):
+            if kind == "both":
+                out.append(self.lower[i] + (self.upper[i] - self.lower[i]) * jax.nn.sigmoid(u[i]))
+            elif kind == "lower":
+                out.append(self.lower[i] + jnp.exp(u[i]))
+            else:
+                out.append(u[i])
+        return jnp.stack(out)
 
+    def log_abs_jacobian(self, u: Float[Array, " params"]) -> Float[Array, ""]:
+        """log |d theta / d u| summed over the parameters (densities in the unconstrained space)."""
+        total = jnp.asarray(0.0)
+        for i, kind in enumerate(self.kinds):
+            if kind == "both":
+                total = total + jnp.log(self.upper[i] - self.lower[i]) - jax.nn.softplus(-u[i]) - jax.nn.softplus(u[i])
+            elif kind == "lower":
+                total = total + u[i]
+        return total
+
+    # --- the model
     def with_values(self, base: tj.Params, theta: Float[Array, " params"]) -> tj.Params:
         """``base`` with the free parameters set to ``theta``."""
-        def leaves(p):
-            return tuple(getattr(getattr(p, q.section), q.field) for q in self.parameters)
+        return set_leaves(base, {name: theta[i] for i, name in enumerate(self.names)})
 
-        return eqx.tree_at(leaves, base, tuple(theta[i] for i in range(len(self.parameters))))
+    def predict_group(self, theta: Float[Array, " params"], group: FileGroup, *, dense: bool = True) -> tj.Result:
+        """The model of ``group``'s camera at ``theta`` (smooth mode) on its data rows, and with
+        ``dense`` also on its dense points (after the data rows)."""
+        sweep = group.sweep if dense else group.data_sweep()
+        return tj.predict(self.with_values(group.params, theta), sweep, smooth=self.smooth)
 
-    def predict(self, theta: Float[Array, " params"], i: int, sweep: tj.Sweep | None = None) -> tj.Result:
-        """The model of file ``i`` at ``theta`` (smooth mode), on its rows or on ``sweep``."""
-        return tj.predict(self.with_values(self.bases[i], theta), self.sweeps[i] if sweep is None else sweep,
-                          smooth=self.smooth)
+    def _rows(self, r: tj.Result, group: FileGroup):
+        """Per observable, (model, uncertainty) on the data rows of a group's result."""
+        n = group.frames
+        amp_std, depth_std = r.amplitude_std_lsb[: group.n_data], r.depth_std_m[: group.n_data]
+        if self.has_relative_error:
+            sigmas = tuple(self.relative_error * jnp.abs(v) for v in group.values)
+        else:
+            sigmas = (amp_std / jnp.sqrt(jnp.maximum(n, 1.0)), depth_std / jnp.sqrt(2.0 * jnp.maximum(n - 1.0, 1.0)))
+        models = (r.amplitude_mean_lsb[: group.n_data], depth_std)
+        return tuple((m, jnp.where(mask, s, 1.0)) for m, s, mask in zip(models, sigmas, group.masks, strict=True))
 
-    def evaluate(self, theta: Float[Array, " params"]) -> tuple[tuple[tuple[Array, Array], ...], ...]:
-        """Per file and observable: (model value, row uncertainty) on every row (masked rows: 1)."""
-        out = []
-        for i in range(len(self.bases)):
-            r = self.predict(theta, i)
-            n = self.frames[i]
-            if self.relative_error is not None:
-                sigmas = tuple(self.relative_error * jnp.abs(v) for v in self.values[i])
-            else:
-                sigmas = (r.amplitude_std_lsb / jnp.sqrt(jnp.maximum(n, 1.0)),
-                          r.depth_std_m / jnp.sqrt(2.0 * jnp.maximum(n - 1.0, 1.0)))
-            models = (r.amplitude_mean_lsb, r.depth_std_m)
-            out.append(tuple((m, jnp.where(mask, s, 1.0))
-                             for m, s, mask in zip(models, sigmas, self.masks[i], strict=True)))
+    def _split(self, per_group):
+        """Per-group row arrays -> per file (in the order given), per observable."""
+        out: list = [None] * self.n_files
+        for group, per_obs in zip(self.groups, per_group, strict=True):
+            for i, (lo, hi) in zip(group.files, group.bounds, strict=True):
+                out[i] = tuple((m[lo:hi], s[lo:hi]) for m, s in per_obs)
         return tuple(out)
 
-    def residuals_theta(self, theta: Float[Array, " params"]) -> Float[Array, " residuals"]:
+    def evaluate(self, theta: Float[Array, " params"]) -> tuple[tuple[tuple[Array, Array], ...], ...]:
+        """Per file (in the order given) and observable: (model value, row uncertainty) on every row
+        of the file (masked rows: uncertainty 1)."""
+        return self._split([self._rows(self.predict_group(theta, g, dense=False), g) for g in self.groups])
+
+    def _residuals(self, per_group) -> Float[Array, " residuals"]:
         parts = []
-        for per_file, values, masks in zip(self.evaluate(theta), self.values, self.masks, strict=True):
-            parts.extend(jnp.where(mask, (m - v) / s, 0.0)
-                         for (m, s), v, mask in zip(per_file, values, masks, strict=True))
+        for group, per_obs in zip(self.groups, per_group, strict=True):
+            for (m, s), v, mask in zip(per_obs, group.values, group.masks, strict=True):
+                parts.append(jnp.where(mask, (m - v) / s, 0.0))
         return jnp.concatenate(parts)
+
+    def residuals_theta(self, theta: Float[Array, " params"]) -> Float[Array, " residuals"]:
+        return self._residuals([self._rows(self.predict_group(theta, g, dense=False), g) for g in self.groups])
 
     def residuals(self, u: Float[Array, " params"]) -> Float[Array, " residuals"]:
         """Whitened residuals at unconstrained parameters ``u`` (0 for masked rows)."""
         return self.residuals_theta(self.constrained(u))
 
-
     def log_likelihood(self, theta: Float[Array, " params"]) -> Float[Array, ""]:
         """Gaussian log-likelihood, with the normalisation of parameter-dependent uncertainties."""
         total = jnp.asarray(0.0)
-        for per_file, values, masks in zip(self.evaluate(theta), self.values, self.masks, strict=True):
-            for (m, s), v, mask in zip(per_file, values, masks, strict=True):
+        for group in self.groups:
+            per_obs = self._rows(self.predict_group(theta, group, dense=False), group)
+            for (m, s), v, mask in zip(per_obs, group.values, group.masks, strict=True):
                 total = total - jnp.sum(jnp.where(mask, 0.5 * ((m - v) / s) ** 2 + jnp.log(s), 0.0))
         return total
 
@@ -101,42 +230,76 @@ class Problem(eqx.Module):
         """Log prior density in the unconstrained space: uniform (or Gaussian) in theta within the
         bounds, times the Jacobian of the transform."""
         theta = self.constrained(u)
-        total = jnp.asarray(0.0)
-        for i, p in enumerate(self.parameters):
-            total = total + p.log_abs_jacobian(u[i])
-            if p.prior is not None:
-                mu, sigma = p.prior
-                total = total - 0.5 * ((theta[i] - mu) / sigma) ** 2
-        return total
+        sigma = jnp.where(self.prior_sigma > 0, self.prior_sigma, 1.0)
+        gaussian = jnp.where(self.prior_sigma > 0, -0.5 * ((theta - self.prior_mean) / sigma) ** 2, 0.0)
+        return self.log_abs_jacobian(u) + jnp.sum(gaussian)
 
     def log_posterior(self, u: Float[Array, " params"]) -> Float[Array, ""]:
         return self.log_likelihood(self.constrained(u)) + self.log_prior(u)
+
+    def dense_curves(self, theta: Float[Array, " params"]) -> tuple[Array, ...]:
+        """Per group, ``(files, 2, DENSE_POINTS)``: amplitude and depth noise on the dense points."""
+        out = []
+        for group in self.groups:
+            r = self.predict_group(theta, group)
+            curves = jnp.stack([r.amplitude_mean_lsb[group.n_data:], r.depth_std_m[group.n_data:]])
+            out.append(jnp.moveaxis(curves.reshape(2, len(group.files), -1), 0, 1))
+        return tuple(out)
 
 
 def build_problem(parameters: tuple[FreeParameter, ...], rows: list[SweepRows], smooth: tj.Smooth | None = None,
                   relative_error: float | None = None) -> Problem:
     """Assemble the problem from free parameters and prepared sweep files."""
+    def kind(p: FreeParameter) -> str:
+        return "both" if p.lower is not None and p.upper is not None else ("lower" if p.lower is not None else "none")
+
+    def numbers(values):
+        return jnp.asarray([0.0 if v is None else float(v) for v in values])
+
     return Problem(
-        parameters=tuple(parameters), relative_error=relative_error,
-        bases=tuple(r.params for r in rows), sweeps=tuple(r.sweep for r in rows),
-        values=tuple(tuple(jnp.asarray(np.where(r.data[n][1], r.data[n][0], 0.0)) for n in OBSERVABLES)
-                     for r in rows),
-        masks=tuple(tuple(jnp.asarray(r.data[n][1]) for n in OBSERVABLES) for r in rows),
-        frames=tuple(jnp.asarray(r.frames, dtype=float) for r in rows),
-        smooth=smooth if smooth is not None else tj.Smooth(),
+        names=tuple(p.name for p in parameters), units=tuple(p.unit for p in parameters),
+        kinds=tuple(kind(p) for p in parameters), has_relative_error=relative_error is not None,
+        lower=numbers(p.lower for p in parameters), upper=numbers(p.upper for p in parameters),
+        initial=numbers(p.initial for p in parameters),
+        prior_mean=numbers(p.prior[0] if p.prior else 0.0 for p in parameters),
+        prior_sigma=numbers(p.prior[1] if p.prior else 0.0 for p in parameters),
+        relative_error=jnp.asarray(0.0 if relative_error is None else float(relative_error)),
+        groups=_groups(rows), smooth=smooth if smooth is not None else tj.Smooth(),
     )
 
 
+class Linearization(eqx.Module):
+    """What :func:`linearize` returns at unconstrained parameters ``u``."""
+
+    theta: Array  # the parameters
+    dtheta_du: Array  # the bound transform's slopes (diagonal)
+    residuals: Array
+    jacobian: Array  # d residuals / d u
+    evaluated: tuple  # Problem.evaluate(theta)
+    curves: tuple  # Problem.dense_curves(theta)
+    curves_jacobian: tuple  # d curves / d u
+
+
 # Module-level compiled entry points: they take the problem as an argument, so every problem of
-# the same structure (parameters, files' row counts and static settings) reuses one compilation.
+# the same structure (parameters, file groups' row counts and static settings) reuses one compilation.
 @eqx.filter_jit
-def residuals(u, problem: Problem):
-    return problem.residuals(u)
+def linearize(problem: Problem, u) -> Linearization:
+    """Residuals, model values and dense curves at ``u``, with their Jacobians: one program for the
+    least-squares steps and for everything the fit reports at its solution."""
+    def outputs(v):
+        theta = problem.constrained(v)
+        per_group, curves = [], []
+        for group in problem.groups:
+            r = problem.predict_group(theta, group)
+            per_group.append(problem._rows(r, group))
+            c = jnp.stack([r.amplitude_mean_lsb[group.n_data:], r.depth_std_m[group.n_data:]])
+            curves.append(jnp.moveaxis(c.reshape(2, len(group.files), -1), 0, 1))
+        residuals = problem._residuals(per_group)
+        return (residuals, tuple(curves)), (theta, residuals, problem._split(per_group), tuple(curves))
 
-
-@eqx.filter_jit
-def jacobian_theta(problem: Problem, theta):
-    return jax.jacfwd(problem.residuals_theta)(theta)
+    (jac, curves_jac), (theta, residuals, evaluated, curves) = jax.jacfwd(outputs, has_aux=True)(u)
+    dtheta = jnp.diagonal(jax.jacfwd(problem.constrained)(u))
+    return Linearization(theta, dtheta, residuals, jac, evaluated, curves, curves_jac)
 
 
 @eqx.filter_jit
@@ -147,3 +310,8 @@ def evaluate(problem: Problem, theta):
 @eqx.filter_jit
 def batched_log_posterior(problem: Problem, u_batch):
     return jax.vmap(problem.log_posterior)(u_batch)
+
+
+@eqx.filter_jit
+def batched_curves(problem: Problem, thetas):
+    return jax.vmap(problem.dense_curves)(thetas)

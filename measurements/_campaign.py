@@ -19,7 +19,7 @@ from pathlib import Path
 import jax.numpy as jnp
 import numpy as np
 import tofjax as tj
-from tofjax import _depth
+from tofjax import stats
 from tofjax import sweepfile as sf
 
 from ._devices import Frames
@@ -74,8 +74,8 @@ def point_statistics(frames: Frames, unambiguity_m: float) -> dict[str, float]:
     centre = np.angle(z.sum())
     mean_phase = np.mod(centre + np.mean(np.angle(np.exp(1j * (phase - centre)))[valid]), 2 * np.pi)
     # Per pixel (rows), over its valid frames: wrap-safe phase std and amplitude std (ddof 1).
-    _, phase_std, _ = _depth.circular_stats(jnp.asarray(phase.T), jnp.asarray(valid.T))
-    _, amp_std = _depth.masked_mean_std(jnp.asarray(amp.T), jnp.asarray(valid.T))
+    _, phase_std, _ = stats.circular_stats(jnp.asarray(phase.T), jnp.asarray(valid.T))
+    _, amp_std = stats.masked_mean_std(jnp.asarray(amp.T), jnp.asarray(valid.T))
     phase_std, amp_std = np.asarray(phase_std), np.asarray(amp_std)
     usable = np.isfinite(phase_std)  # pixels with at least two valid frames
     return out | {

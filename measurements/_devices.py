@@ -128,7 +128,8 @@ class VirtualCamera:
         p = eqx.tree_at(lambda q: q.scene.illuminance_lx, self.params, jnp.asarray(self.lux.read_lx(), dtype=float))
         key = jax.random.fold_in(self._key, self._grabs)
         self._grabs += 1
-        r = tj.simulate(p, tj.Sweep("distance", [distance]), key, n * width * height)
+        frames = n * width * height
+        r = tj.simulate(p, tj.Sweep("distance", [distance]), key, frames, keep_frames=frames)
         shape = (n, height, width)
         return Frames(np.asarray(r.depth_m[0]).reshape(shape), np.asarray(r.amplitude_lsb[0]).reshape(shape),
                       np.asarray(r.valid[0]).reshape(shape))

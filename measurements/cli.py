@@ -68,7 +68,7 @@ def _settings(args) -> dict:
         known = set(vars(args)) - {"command", "run", "campaign"}
         for key, value in campaign.items():
             if key not in known:
-                from tofjax._schema import suggest
+                from tofjax.schema import suggest
 
                 raise ValueError(f"{args.campaign}: unknown campaign key {key!r}{suggest(key, sorted(known))}")
             values[key] = value
@@ -100,7 +100,9 @@ def run(args) -> int:
     if v["stage"] == "virtual":
         stage = VirtualStage(settings.distance_m, travel)
     else:
-        transport = FakeAptController() if v["stage"] == "fake" else FtdiTransport(v["stage"])
+        # The fake controller here stands in for a stage in a demonstration or a test: it moves at
+        # 1e10 counts/s (the real driver, bytes and all, without waiting for a 50 mm/s stage).
+        transport = FakeAptController(velocity_counts_per_s=1e10) if v["stage"] == "fake" else FtdiTransport(v["stage"])
         stage = AptStage(transport, counts_per_mm=float(v["counts_per_mm"]), travel_m=travel)
     lux = ManualLuxMeter() if v["lux"] == "manual" else VirtualLuxMeter(settings.illuminance_lx)
     try:

@@ -105,3 +105,26 @@ def test_quantization_variance_matches_a_dithered_measurement(dnl):
     assert float(_adc.quantization_variance_lsb2(adc)) == pytest.approx(measured, rel=0.01)  # MC: ~0.3 %
     if dnl == 0.0:
         assert float(_adc.quantization_variance_lsb2(adc)) == pytest.approx(1 / 12, rel=1e-9)
+
+
+@pytest.mark.parametrize("enabled", [True, False])
+def test_readout_stage_matches_the_adc_functions_and_their_derivatives(enabled):
+    """The readout's folded per-frame position, and its slopes, are those of the ADC functions."""
+    adc = tofjax.ADC(enabled=enabled)
+    readout = _adc.Readout(adc, jnp.asarray(14e-15 / 1.602176634e-19))
+    charge = jnp.linspace(-9e4, 9e4, 41)
+    v = charge / readout.electrons_per_volt
+    np.testing.assert_allclose(readout.position(charge), _adc.code_position(adc, v), rtol=1e-13, atol=1e-10)
+    slope = jax.vmap(jax.grad(lambda x: _adc.code_position(adc, x)))(v)
+    np.testing.assert_allclose(_adc.code_position_slope(adc, v), slope, rtol=1e-12)
+    for t in (None, jnp.asarray(0.3)):
+        stage = _adc.Readout(adc, readout.electrons_per_volt, t)
+        code, dcode, u, du = stage.linearize(charge)
+
+        def expected_code(c, t=t):
+            return _adc.expected_code(adc, _adc.code_position(adc, c / readout.electrons_per_volt), t)
+
+        np.testing.assert_allclose(code, jax.vmap(expected_code)(charge), rtol=1e-13)
+        np.testing.assert_allclose(dcode, jax.vmap(jax.grad(expected_code))(charge), rtol=1e-9, atol=1e-15)
+        np.testing.assert_allclose(u, _adc.code_position(adc, v), rtol=1e-13)
+        np.testing.assert_allclose(du, slope / readout.electrons_per_volt, rtol=1e-12)

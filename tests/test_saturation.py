@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tofjax._saturation import flags, saturate
+from tofjax._saturation import SBI, Saturation, flags, saturate
 
 WELL = 78_000.0
 
@@ -70,3 +70,40 @@ def test_smooth_gradients_are_finite_everywhere(a, b, sbi):
 
     g = jax.grad(f, argnums=(0, 1))(jnp.asarray(a), jnp.asarray(b))
     assert all(np.isfinite(float(x)) for x in g)
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.floats(-2e3, 3e5), st.floats(-2e3, 3e5), st.booleans(), st.sampled_from([None, 50.0, 437.0]))
+def test_closed_form_slopes_equal_forward_mode_derivatives(a, b, sbi, temperature):
+    """The analytic path's slopes of the held differential are the derivatives of the limit itself."""
+    t = None if temperature is None else jnp.asarray(temperature)
+    stage = SBI(jnp.asarray(WELL), t) if sbi else Saturation(jnp.asarray(WELL), t)
+    a, b = jnp.asarray(a), jnp.asarray(b)
+    kinks = jnp.array([a - WELL, b - WELL, a - b, a, b, a - b - WELL, b - a - WELL])
+    if temperature is None and bool(jnp.any(jnp.abs(kinks) < 1e-6)):
+        return  # on a kink of the hard mode the derivative is not defined
+    diff = lambda x, y: jnp.subtract(*stage(x, y))  # noqa: E731
+    slope_a, slope_b = stage.slopes(a, b)
+    assert float(slope_a) == pytest.approx(float(jax.grad(diff, 0)(a, b)), abs=1e-9)
+    assert float(slope_b) == pytest.approx(float(jax.grad(diff, 1)(a, b)), abs=1e-9)
+
+
+@pytest.mark.parametrize("sbi", [False, True])
+def test_linear_region_passes_every_charge_within_reach(sbi):
+    """Where the limit says it is linear, every charge within reach keeps its differential, the
+    pixel stays unsaturated and the SBI flag is the same: checked on a grid of the reach box."""
+    stage = SBI(jnp.asarray(WELL)) if sbi else Saturation(jnp.asarray(WELL))
+    rng = np.random.default_rng(2)
+    n_a, n_b = (jnp.asarray(rng.uniform(-1e3, 1.6e5, 400)) for _ in range(2))
+    reach = jnp.asarray(rng.uniform(10.0, 3e3, 400))
+    linear, engaged = stage.linear(n_a, n_b, reach, reach)
+    assert 0.05 < float(jnp.mean(linear)) < 0.95
+    grid = jnp.linspace(-1.0, 1.0, 9)
+    a = (n_a[:, None, None] + reach[:, None, None] * grid[None, :, None]) * jnp.ones((1, 1, 9))
+    b = (n_b[:, None, None] + reach[:, None, None] * grid[None, None, :]) * jnp.ones((1, 9, 1))
+    held_a, held_b = stage(a, b)
+    saturated, sbi_on = stage.flags(a, b)
+    ok = jnp.all(jnp.abs((held_a - held_b) - (a - b)) < 1e-6, axis=(1, 2)) & ~jnp.any(saturated, axis=(1, 2))
+    same_flag = jnp.all(sbi_on == engaged[:, None, None], axis=(1, 2))
+    assert bool(jnp.all(ok[linear] & same_flag[linear]))
+    assert bool(jnp.all(stage.passes(n_a, n_b, reach, reach)[linear]))

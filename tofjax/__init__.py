@@ -1,55 +1,67 @@
 """tofjax: a physical, differentiable performance model of a continuous-wave Time-of-Flight camera.
 
 Importing tofjax turns on JAX's float64 mode (``jax_enable_x64``): the model's electron counts,
-phases and gradients need double precision.
+phases and gradients need double precision. The package imports its parts lazily (PEP 562): ``import
+tofjax`` itself loads neither JAX nor NumPy, so the ``tofjax`` command starts fast; the first use of
+a name such as ``tofjax.predict`` loads what it needs.
 """
 
-import jax as _jax
+from __future__ import annotations
 
-_jax.config.update("jax_enable_x64", True)
+import importlib
+import os
+import sys
+from typing import TYPE_CHECKING
 
-from ._background import (  # noqa: E402
-    background_irradiance_w_per_m2 as background_irradiance_w_per_m2,
-    background_photon_irradiance as background_photon_irradiance,
-)
-from ._config import (  # noqa: E402
-    Config as Config,
-    config_from_dict as config_from_dict,
-    default_config_text as default_config_text,
-    load_config as load_config,
-)
-from ._estimate import cw_depth_noise as cw_depth_noise, pulsed_depth_noise as pulsed_depth_noise  # noqa: E402
-from ._model import Smooth as Smooth, predict as predict, simulate as simulate  # noqa: E402
-from ._multifrequency import (  # noqa: E402
-    MultiFrequencyResult as MultiFrequencyResult,
-    extended_range_m as extended_range_m,
-    simulate_multifrequency as simulate_multifrequency,
-    unwrap_frequencies as unwrap_frequencies,
-)
-from ._optics import lens as lens, spot_area_m2 as spot_area_m2  # noqa: E402
-from ._params import (  # noqa: E402
-    ADC as ADC,
-    AbstractWaveform as AbstractWaveform,
-    Camera as Camera,
-    Illumination as Illumination,
-    IlluminationWaveform as IlluminationWaveform,
-    Params as Params,
-    PhysicalConstants as PhysicalConstants,
-    Pixel as Pixel,
-    ReferenceWaveform as ReferenceWaveform,
-    Scene as Scene,
-)
-from ._result import NoiseBreakdown as NoiseBreakdown, Result as Result  # noqa: E402
-from ._schema import ConfigError as ConfigError  # noqa: E402
-from ._sweep import Sweep as Sweep  # noqa: E402
-from ._waveforms import (  # noqa: E402
-    fourier_coefficients as fourier_coefficients,
-    phase_steps as phase_steps,
-    waveform as waveform,
-    waveform_mean as waveform_mean,
-)
+__version__ = "0.1.0"
 
-from . import sweepfile as sweepfile  # noqa: E402
+# Float64 everywhere. JAX reads the environment variable when it is first imported; if it already
+# was, switch the flag directly (before any computation of tofjax's).
+if "jax" in sys.modules:
+    sys.modules["jax"].config.update("jax_enable_x64", True)
+else:
+    os.environ["JAX_ENABLE_X64"] = "1"
+
+#: Public name -> the private module that defines it.
+_EXPORTS = {
+    "background_irradiance_w_per_m2": "_background", "background_photon_irradiance": "_background",
+    "Config": "_config", "config_from_dict": "_config", "default_config_text": "_config", "load_config": "_config",
+    "cw_depth_noise": "_estimate", "pulsed_depth_noise": "_estimate",
+    "Smooth": "_smooth", "predict": "_analytic", "simulate": "_montecarlo",
+    "CAVEATS": "_result", "CAVEAT_NEAR_LIMIT": "_result", "CAVEAT_COARSE_QUANTIZATION": "_result",
+    "CAVEAT_LOW_SNR": "_result", "NoiseBreakdown": "_result", "Result": "_result",
+    "MultiFrequencyResult": "_multifrequency", "extended_range_m": "_multifrequency",
+    "simulate_multifrequency": "_multifrequency", "unwrap_frequencies": "_multifrequency",
+    "lens": "_optics", "spot_area_m2": "_optics",
+    "ADC": "_params", "AbstractWaveform": "_params", "Camera": "_params", "Illumination": "_params",
+    "IlluminationWaveform": "_params", "Params": "_params", "PhysicalConstants": "_params", "Pixel": "_params",
+    "ReferenceWaveform": "_params", "Scene": "_params",
+    "ConfigError": "_schema", "Sweep": "_sweep",
+    "fourier_coefficients": "_waveforms", "phase_steps": "_waveforms", "waveform": "_waveforms",
+    "waveform_mean": "_waveforms",
+    "Chain": "_chain", "build_chain": "_chain",
+    "AbstractNoiseSource": "_noise", "NoiseBudget": "_noise", "NOISE_SOURCES": "_noise",
+    "get_leaf": "_leaves", "set_leaves": "_leaves",
+}
+#: Public submodules, loaded on first use.
+_SUBMODULES = ("plots", "report", "schema", "stats", "sweepfile", "cli")
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    if name in _SUBMODULES:
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'tofjax' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_EXPORTS, *_SUBMODULES])
+
+
+__all__ = sorted([*_EXPORTS, "explorer", "__version__"])
 
 
 def explorer(config=None):
@@ -65,4 +77,25 @@ def explorer(config=None):
     return Explorer(config)
 
 
-__version__ = "0.1.0"
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from . import plots, report, schema, stats, sweepfile  # noqa: F401
+    from ._analytic import predict  # noqa: F401
+    from ._background import background_irradiance_w_per_m2, background_photon_irradiance  # noqa: F401
+    from ._chain import Chain, build_chain  # noqa: F401
+    from ._config import Config, config_from_dict, default_config_text, load_config  # noqa: F401
+    from ._estimate import cw_depth_noise, pulsed_depth_noise  # noqa: F401
+    from ._leaves import get_leaf, set_leaves  # noqa: F401
+    from ._montecarlo import simulate  # noqa: F401
+    from ._multifrequency import (  # noqa: F401
+        MultiFrequencyResult, extended_range_m, simulate_multifrequency, unwrap_frequencies)
+    from ._noise import NOISE_SOURCES, AbstractNoiseSource, NoiseBudget  # noqa: F401
+    from ._optics import lens, spot_area_m2  # noqa: F401
+    from ._params import (  # noqa: F401
+        ADC, AbstractWaveform, Camera, Illumination, IlluminationWaveform, Params, PhysicalConstants, Pixel,
+        ReferenceWaveform, Scene)
+    from ._result import (  # noqa: F401
+        CAVEAT_COARSE_QUANTIZATION, CAVEAT_LOW_SNR, CAVEAT_NEAR_LIMIT, CAVEATS, NoiseBreakdown, Result)
+    from ._schema import ConfigError  # noqa: F401
+    from ._smooth import Smooth  # noqa: F401
+    from ._sweep import Sweep  # noqa: F401
+    from ._waveforms import fourier_coefficients, phase_steps, waveform, waveform_mean  # noqa: F401

@@ -1,4 +1,4 @@
-"""Closed-form depth-noise estimates (thesis §5.5.4, Fig 5.18), from the model's electron budget.
+"""Closed-form depth-noise estimates (thesis §5.5.4, Fig 5.18), from the chain's noise budget.
 
 CW estimate (N-phase, 2-tap). Each phase image is D_j = A cos(phi - theta_j) + noise of variance
 sigma_D^2. The estimator arg(sum_j D_j e^{i theta_j}) has phase variance (2 / N) sigma_D^2 / A^2
@@ -8,9 +8,10 @@ sigma_D^2. The estimator arg(sum_j D_j e^{i theta_j}) has phase variance (2 / N)
 
 A is the fundamental amplitude of the differential in electrons, K N_s 4 abs(R_1 S_1) / S_0 (K the
 demodulation contrast, N_s the active electrons of one image, R_k, S_k the Fourier coefficients of
-reference and emitted waveforms; 0.5 K N_s for sine/sine); sigma_D^2 sums the shot noise of every
-collected electron (signal, background, dark, both taps), reset and hold kTC of both taps and the
-quantisation variance, in electrons. Exact for sinusoidal correlation without ADC and saturation.
+reference and emitted waveforms; 0.5 K N_s for sine/sine); sigma_D^2 is the variance of A - B from
+every source of the noise budget (:class:`tofjax.NoiseBudget`: shot noise of every collected electron,
+reset and hold kTC of both taps, ...) plus the quantisation variance, in electrons. Exact for
+sinusoidal correlation without ADC and saturation.
 
 Pulsed estimate (the Perenzoni-Stoppa approach the thesis cites; its Eq 5.2 is not in the available
 text, so it is derived here). A rectangular pulse of width T_p = duty / f inside complementary
@@ -20,8 +21,8 @@ sigma_x^2 = v / (2 N_sig^2); the N images form N/2 complementary pairs, so
 
     sigma_d = (c T_p / 2) sqrt(v / 2) / N_sig / sqrt(N / 2),
 
-with N_sig = K N_s and v = N_s / 2 + N_bg / 2 + N_dark + sigma_reset^2 + sigma_hold^2 + sigma_q^2 / 2.
-It ignores the waveforms' shape and the mixing, as the thesis notes.
+with N_sig = K N_s and v = sigma_D^2 / 2, half the differential variance. It ignores the waveforms'
+shape and the mixing, as the thesis notes.
 """
 
 from __future__ import annotations
@@ -30,43 +31,42 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from . import _adc
-from ._model import _electrons_per_volt, _expected
-from ._noise import hold_noise_e, reset_noise_e
+from ._chain import build_chain
 from ._params import Params
-from ._sweep import Sweep
+from ._sweep import Sweep, check_inputs
 from ._waveforms import fourier_coefficients
 
 
 def _budget(params: Params, sweep: Sweep):
-    ex = _expected(params, sweep)
-    reset = reset_noise_e(params.pixel, params.constants)
-    hold = hold_noise_e(params.pixel, params.constants)
-    quant_e2 = _adc.quantization_variance_lsb2(params.adc) * (params.adc.lsb_v * _electrons_per_volt(params)) ** 2
-    return ex, reset, hold, quant_e2
+    """Active electrons and the differential variance sigma_D^2 (mean over the phase images), e-^2."""
+    check_inputs(params, sweep)
+    chain = build_chain(params, points=sweep.samples)
+    charges = chain.expose(*sweep.operating_points(params.scene))
+    readout = chain.readout
+    quant_e2 = chain.readout.quantization_variance_lsb2 * readout.lsb_e**2 if chain.noise.enabled else 0.0
+    var_d = jnp.mean(chain.noise.differential_variance_e2(charges), axis=-1) + quant_e2
+    return charges.signal_e, var_d
 
 
 @eqx.filter_jit
-def cw_depth_noise(params: Params, sweep: Sweep) -> Float[Array, " samples"]:
+def cw_depth_noise(params: Params, sweep: Sweep) -> Float[Array, "*b"]:
     """Shot-noise-limited CW estimate of the depth standard deviation, m (module docstring)."""
-    ex, reset, hold, quant_e2 = _budget(params, sweep)
+    active_e, var_d = _budget(params, sweep)
     r = fourier_coefficients(params.reference_waveform, 1)
     s = fourier_coefficients(params.illumination_waveform, 1)
-    amplitude_e = params.pixel.demodulation_contrast * ex.active_e * 4.0 * jnp.abs(r[1] * s[1]) / jnp.real(s[0])
-    var_d = ex.active_e + ex.background_e + ex.dark_a + ex.dark_b + 2.0 * (reset**2 + hold**2) + quant_e2
+    amplitude_e = params.pixel.demodulation_contrast * active_e * 4.0 * jnp.abs(r[1] * s[1]) / jnp.real(s[0])
     f = params.illumination_waveform.modulation_frequency_hz
     c = params.constants.speed_of_light_m_per_s
     n = params.pixel.n_phases
-    return c / (4.0 * jnp.pi * f) * jnp.sqrt(2.0) * jnp.sqrt(var_d) / (jnp.sqrt(n) * amplitude_e)
+    return c / (4.0 * jnp.pi * f) * jnp.sqrt(2.0) * jnp.sqrt(var_d) / (jnp.sqrt(float(n)) * amplitude_e)
 
 
 @eqx.filter_jit
-def pulsed_depth_noise(params: Params, sweep: Sweep) -> Float[Array, " samples"]:
+def pulsed_depth_noise(params: Params, sweep: Sweep) -> Float[Array, "*b"]:
     """Pulsed (Perenzoni-Stoppa type) estimate of the depth standard deviation, m (module docstring)."""
-    ex, reset, hold, quant_e2 = _budget(params, sweep)
+    active_e, var_d = _budget(params, sweep)
     wave = params.illumination_waveform
     pulse_s = wave.duty_cycle / wave.modulation_frequency_hz
-    n_sig = params.pixel.demodulation_contrast * ex.active_e
-    v = 0.5 * ex.active_e + 0.5 * ex.background_e + 0.5 * (ex.dark_a + ex.dark_b) + reset**2 + hold**2 + 0.5 * quant_e2
+    n_sig = params.pixel.demodulation_contrast * active_e
     c = params.constants.speed_of_light_m_per_s
-    return 0.5 * c * pulse_s * jnp.sqrt(0.5 * v) / n_sig / jnp.sqrt(0.5 * params.pixel.n_phases)
+    return 0.5 * c * pulse_s * jnp.sqrt(0.25 * var_d) / n_sig / jnp.sqrt(0.5 * params.pixel.n_phases)

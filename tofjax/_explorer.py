@@ -312,7 +312,8 @@ class Explorer:
         self.lamp.value, self.calculate_button.disabled = _BUSY, True
         self.time_label.value = ""
         try:
-            run = run_sweep(self.config, self.config.sweep(self.sweep.value), self.method.value, seed=self.seed.value)
+            run = run_sweep(self.config, self.config.sweep(self.sweep.value), self.method.value, seed=self.seed.value,
+                            keep_frames=200)
         except ValueError as err:
             self.message.value = _error_html(str(err))
             return

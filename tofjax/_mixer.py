@@ -1,60 +1,86 @@
-"""The 2-tap photonic mixer (thesis §3.2.2, §4.2.9, Table 4.17, Eqs 3.19-3.21).
+"""The exposure: operating points to the expected electrons of each tap in each phase image
+(thesis §3.1, §3.2.2, §4.2.2-4.2.9, §4.2.14, Eqs 3.19-3.28).
 
-Within one period the tap-A gate is the reference r(t) and tap B its complement 1 - r(t)
-(A = r s, B = s - r s). With r and s written as Fourier series, the fraction of the received
-light that tap A collects at the reflected delay tau (in periods) and phase step theta_j is
-
-    a_j = sum_k R_k conj(S_k) exp(i k (2 pi tau - theta_j)) / S_0,
-
-exact up to the truncation at N_HARMONICS, continuous and differentiable in the distance.
+Per phase exposure, the active (illumination) electrons N_s and background electrons N_bg of the
+pixel (:mod:`tofjax._optics`, :mod:`tofjax._background`) are split between the taps by the 2-tap
+mixer: the demodulation contrast K sorts K N_s by phase, tap A taking the correlation fraction a_j
+(:mod:`tofjax._correlation`) and tap B the rest (the pixel dumps no charge, Eq 3.20); the remaining
+(1 - K) N_s and the background go half to each tap (Eqs 3.19, 3.21; the background is split, not
+counted twice, see docs/model.md). Dark electrons are added per tap (§4.2.14).
 """
 
 from __future__ import annotations
 
-import jax.numpy as jnp
+import equinox as eqx
 from jaxtyping import Array, Float
 
+from ._background import background_photon_irradiance
+from ._correlation import Correlation
+from ._noise import dark_electrons
+from ._optics import active_electrons, background_electrons
 from ._params import Params
-from ._waveforms import fourier_coefficients, phase_steps
+from ._waveforms import waveform_mean
 
 
-def reflected_phase_rad(params: Params, distance_m: Float[Array, "*b"]) -> Float[Array, "*b"]:
-    """phi_reflected = 4 pi f_mod d / c (Eq 3.22)."""
-    f = params.illumination_waveform.modulation_frequency_hz
-    return 4.0 * jnp.pi * f * distance_m / params.constants.speed_of_light_m_per_s
+class TapCharges(eqx.Module):
+    """Expected electrons of one phase image, before any noise or limit.
 
-
-def tap_a_fraction(params: Params, distance_m: Float[Array, ""]) -> Float[Array, " phases"]:
-    """Fraction of the *modulated* electrons that tap A collects, for each phase step.
-
-    Tap B collects the rest (1 - a_j): the 2-tap pixel dumps no charge.
+    **Fields** (``*b`` is the batch shape of the operating points):
+    - ``photo_a``, ``photo_b``: photo-electrons (signal and background) of tap A and B, ``(*b, phases)``;
+    - ``dark_a``, ``dark_b``: dark electrons of each tap, ``(*b,)``;
+    - ``signal_e``, ``background_e``: active and background photo-electrons of the pixel (both taps).
     """
-    r = fourier_coefficients(params.reference_waveform)
-    s = fourier_coefficients(params.illumination_waveform)
-    product = r * jnp.conj(s)
-    k = jnp.arange(product.shape[0])
-    theta = jnp.asarray(phase_steps(params.pixel.n_phases))
-    delay = reflected_phase_rad(params, distance_m) - theta  # phi = phi_phase + phi_reflected (Eq 3.23)
-    terms = jnp.real(product[None, 1:] * jnp.exp(1j * k[None, 1:] * delay[:, None]))
-    correlation = jnp.real(product[0]) + 2.0 * jnp.sum(terms, axis=-1)  # int_0^1 r_j(t) s(t) dt (Eq 3.24)
-    return correlation / jnp.real(s[0])
+
+    photo_a: Float[Array, "*b phases"]
+    photo_b: Float[Array, "*b phases"]
+    dark_a: Float[Array, "*b"]
+    dark_b: Float[Array, "*b"]
+    signal_e: Float[Array, "*b"]
+    background_e: Float[Array, "*b"]
+
+    @property
+    def a(self) -> Float[Array, "*b phases"]:
+        """All electrons of tap A: photo plus dark."""
+        return self.photo_a + self.dark_a[..., None]
+
+    @property
+    def b(self) -> Float[Array, "*b phases"]:
+        """All electrons of tap B: photo plus dark."""
+        return self.photo_b + self.dark_b[..., None]
+
+    @property
+    def dark_e(self) -> Float[Array, "*b"]:
+        """Dark electrons of both taps."""
+        return self.dark_a + self.dark_b
 
 
-def tap_photo_electrons(
-    params: Params,
-    distance_m: Float[Array, ""],
-    active_e: Float[Array, ""],
-    background_e: Float[Array, ""],
-) -> tuple[Float[Array, " phases"], Float[Array, " phases"]]:
-    """Expected photo-electrons collected by taps A and B in each phase exposure.
+def split_between_taps(fraction_a: Float[Array, "*b phases"], contrast: Float[Array, ""],
+                       active_e: Float[Array, "*b"], background_e: Float[Array, "*b"]):
+    """Photo-electrons of taps A and B per phase (Eqs 3.19-3.21): K N_s a_j plus the equally
+    distributed (1 - K) N_s / 2 + N_bg / 2, and K N_s (1 - a_j) plus the same."""
+    modulated = (contrast * active_e)[..., None]
+    equal = (0.5 * (1.0 - contrast) * active_e + 0.5 * background_e)[..., None]
+    return modulated * fraction_a + equal, modulated * (1.0 - fraction_a) + equal
 
-    The demodulation contrast K sorts K of the active electrons by phase (Eq 3.20); the rest,
-    (1 - K)/2 per tap (Eq 3.19), and the background electrons go equally to both taps (Eq 3.21, but
-    split in half: each background electron lands in one tap, see docs/model.md). Dark electrons
-    are added per tap by the caller.
+
+def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*b"],
+           illuminance_lx: Float[Array, "*b"], integration_time_s: Float[Array, "*b"],
+           dark_slopes_v_per_s: tuple[Array, Array] | None = None) -> TapCharges:
+    """Expected tap electrons at every operating point (module docstring).
+
+    ``dark_slopes_v_per_s``: the taps' own dark slopes (a fixed-pattern pixel), else the mean slope.
     """
-    a = tap_a_fraction(params, distance_m)
-    contrast = params.pixel.demodulation_contrast
-    modulated = contrast * active_e
-    equal = 0.5 * (1.0 - contrast) * active_e + 0.5 * background_e
-    return modulated * a + equal, modulated * (1.0 - a) + equal
+    scene, ill, consts = params.scene, params.illumination, params.constants
+    active = active_electrons(params, distance_m, integration_time_s, waveform_mean(params.illumination_waveform))
+    photon_irr = background_photon_irradiance(scene.background, illuminance_lx, ill.wavelength_m,
+                                              scene.filter_half_width_m, consts)
+    background = background_electrons(params, distance_m, photon_irr, integration_time_s)
+    # The reflected phase 4 pi f d / c (Eq 3.22) in periods.
+    delay = 2.0 * params.illumination_waveform.modulation_frequency_hz * distance_m / consts.speed_of_light_m_per_s
+    photo_a, photo_b = split_between_taps(correlation(delay), params.pixel.demodulation_contrast, active, background)
+    if dark_slopes_v_per_s is None:
+        dark_a = dark_b = dark_electrons(params.pixel, integration_time_s, consts)
+    else:
+        dark_a = dark_electrons(params.pixel, integration_time_s, consts, dark_slopes_v_per_s[0])
+        dark_b = dark_electrons(params.pixel, integration_time_s, consts, dark_slopes_v_per_s[1])
+    return TapCharges(photo_a, photo_b, dark_a, dark_b, active, background)

@@ -13,6 +13,9 @@ extended range (the effect behind Fig 5.9). A simulated frame counts as wrongly 
 distance is further than half the smallest unambiguity range from the true distance (modulo the
 extended range); statistics of the depth use the correctly unwrapped valid frames, and the wrong
 fraction is reported beside them.
+
+The frames of every frequency are drawn together, chunk by chunk, by the Monte Carlo engine
+(:mod:`tofjax._frames`), so memory stays bounded; each frequency has its own random stream.
 """
 
 from __future__ import annotations
@@ -27,11 +30,13 @@ import jax.random as jr
 import numpy as np
 from jaxtyping import Array, Bool, Float, PRNGKeyArray
 
-from . import _depth
-from ._model import simulate
+from ._chain import build_chain
+from ._frames import draw_frames, reduce_frames, run_blocks, wrap
+from ._montecarlo import assemble, check_counts, prepare
 from ._params import Params
+from ._random import key_words
 from ._result import Result
-from ._sweep import Sweep
+from ._sweep import Sweep, check_inputs
 
 
 def extended_range_m(frequencies_hz, speed_of_light_m_per_s: float = 299_792_458.0) -> float:
@@ -46,23 +51,23 @@ class MultiFrequencyResult(eqx.Module):
     """A multi-frequency Monte Carlo sweep.
 
     - ``per_frequency``: one :class:`tofjax.Result` whose leaves have a leading frequency axis.
-    - ``depth_m``: unwrapped distance per frame (samples, frames), in [0, extended range).
-    - ``wrong_unwrap``: frames whose unwrapping picked the wrong candidate.
+    - ``depth_m``: unwrapped distance per kept frame ``(*b, frames)``, in [0, extended range);
+      ``valid``, ``wrong_unwrap``: per kept frame (``None`` without ``keep_frames``).
     - ``depth_mean_m``, ``depth_std_m``: circular statistics (period: the extended range) over the
       valid, correctly unwrapped frames; ``wrong_unwrap_fraction`` over the valid frames.
     """
 
     frequencies_hz: Float[Array, " frequencies"]
     extended_range_m: Float[Array, ""]
-    distance_m: Float[Array, " samples"]
+    distance_m: Float[Array, "*b"]
     per_frequency: Result
-    depth_m: Float[Array, "samples frames"]
-    valid: Bool[Array, "samples frames"]
-    wrong_unwrap: Bool[Array, "samples frames"]
-    depth_mean_m: Float[Array, " samples"]
-    depth_std_m: Float[Array, " samples"]
-    wrong_unwrap_fraction: Float[Array, " samples"]
-    valid_fraction: Float[Array, " samples"]
+    depth_m: Float[Array, "*b frames"] | None
+    valid: Bool[Array, "*b frames"] | None
+    wrong_unwrap: Bool[Array, "*b frames"] | None
+    depth_mean_m: Float[Array, "*b"]
+    depth_std_m: Float[Array, "*b"]
+    wrong_unwrap_fraction: Float[Array, "*b"]
+    valid_fraction: Float[Array, "*b"]
 
 
 def unwrap_frequencies(phases: Float[Array, "frequencies *b"], ranges_m: Float[Array, " frequencies"],
@@ -70,7 +75,7 @@ def unwrap_frequencies(phases: Float[Array, "frequencies *b"], ranges_m: Float[A
     """Distance from wrapped phases of several frequencies by their agreement (module docstring)."""
     expand = (slice(None),) + (None,) * (phases.ndim - 1)
     frac = phases / (2.0 * jnp.pi)
-    first = (frac[0][None] + jnp.arange(int(math.ceil(extended_m / float(ranges_m[0]) - 1e-9)))[expand]) * ranges_m[0]
+    first = (frac[0][None] + jnp.arange(int(math.ceil(extended_m / float(ranges_m[0]) - 1e-9)), dtype=float)[expand]) * ranges_m[0]
     total_w = 1.0 / ranges_m[0] ** 2
     weighted = first * total_w
     cost = jnp.zeros_like(first)
@@ -85,39 +90,95 @@ def unwrap_frequencies(phases: Float[Array, "frequencies *b"], ranges_m: Float[A
     return jnp.mod(combined, extended_m)
 
 
+class _Combined(eqx.Module):
+    good: Array
+    wrong: Array
+    valid: Array
+    dev: Array
+    dev2: Array
+
+
 def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, iterations: int,
-                            frequencies_hz) -> MultiFrequencyResult:
-    """Monte Carlo at every frequency (one vmapped call) and the combined, unwrapped distance.
+                            frequencies_hz, *, keep_frames: int = 0) -> MultiFrequencyResult:
+    """Monte Carlo at every frequency (frames drawn together, chunk by chunk) and the combined,
+    unwrapped distance.
 
     **Arguments:** as :func:`tofjax.simulate`, plus ``frequencies_hz``: two or more modulation
-    frequencies (concrete values; ``params``' own frequency is replaced by each in turn).
+    frequencies (concrete values; ``params``' own frequency is replaced by each in turn), and
+    ``keep_frames``: unwrapped frames to return per point (the plots use them).
     """
+    check_inputs(params, sweep)
+    check_counts(iterations, keep_frames)
     freqs = np.asarray(frequencies_hz, dtype=float).reshape(-1)
     if freqs.size < 2 or not np.all(freqs > 0) or len(set(freqs.tolist())) != freqs.size:
         raise ValueError(f"frequencies_hz = {freqs.tolist()} must be two or more distinct frequencies > 0 Hz")
     c = float(params.constants.speed_of_light_m_per_s)
-    extended = extended_range_m(freqs, c)
+    ranges = tuple(float(x) for x in c / (2.0 * freqs))
+    return _simulate(params, sweep, key, iterations, jnp.asarray(freqs), keep_frames, float(extended_range_m(freqs, c)),
+                     ranges)
 
-    def one(f, k):
-        p = eqx.tree_at(lambda q: q.illumination_waveform.modulation_frequency_hz, params, f)
-        return simulate(p, sweep, k, iterations)
 
-    per = jax.vmap(one)(jnp.asarray(freqs), jr.split(key, freqs.size))
-    ranges = c / (2.0 * jnp.asarray(freqs))
-    valid = jnp.all(per.valid, axis=0)
-    depth = unwrap_frequencies(jnp.where(valid[None], per.phase_rad, 0.0), ranges, extended)
-    truth = jnp.mod(per.distance_m[0], extended)[:, None]
-    error = depth - truth
-    error = error - extended * jnp.round(error / extended)
-    wrong = valid & (jnp.abs(error) > 0.5 * float(jnp.min(ranges)))
-    good = valid & ~wrong
-    angle = 2.0 * jnp.pi * depth / extended
-    mean_angle, std_angle, _ = _depth.circular_stats(angle, good)
-    n_valid = jnp.sum(valid, axis=1)
+@eqx.filter_jit
+def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges) -> MultiFrequencyResult:
+    ranges = np.asarray(ranges)  # concrete: the number of unwrapping candidates depends on them
+    n_freq = len(ranges)
+
+    def chain_at(f):
+        return build_chain(eqx.tree_at(lambda q: q.illumination_waveform.modulation_frequency_hz, params, f),
+                           points=sweep.samples)
+
+    chains = jax.vmap(chain_at)(freqs)
+    prepared = jax.vmap(lambda ch: prepare(ch, sweep))(chains)
+    words = key_words(jr.split(key)[1])
+    d = sweep.operating_points(params.scene)[0]
+    truth = jnp.mod(d.reshape(-1), extended)
+    # Centre of the combined statistics: the noise-free frames' unwrapped distance.
+    reference = unwrap_frequencies(jnp.mod(prepared.consts.ref_phase, 2.0 * jnp.pi), ranges, extended)
+    streams = jnp.arange(n_freq, dtype=jnp.uint32)
+    min_range = float(np.min(ranges))
+
+    def step(cb, first, n, counted, record):
+        consts, ref, true = cb
+        linear = jnp.all(consts.linear, axis=0)  # a point's path, the same at every frequency (outside the vmap)
+        frames = jax.vmap(lambda ch, c, st: draw_frames(ch, c, words, first, n, st, linear))(chains, consts, streams)
+        per, valid_f = jax.vmap(lambda c, f: reduce_frames(c, f, counted[None, :]))(consts, frames)
+        valid = jnp.all(valid_f, axis=0)
+        depth = unwrap_frequencies(jnp.where(valid[None], jnp.mod(frames.phase, 2.0 * jnp.pi), 0.0), ranges, extended)
+        error = depth - true[:, None]
+        error = error - extended * jnp.round(error / extended)
+        use = valid & counted[None, :]
+        wrong = use & (jnp.abs(error) > 0.5 * min_range)
+        good = use & ~wrong
+        dev = jnp.where(good, wrap(2.0 * jnp.pi * (depth - ref[:, None]) / extended), 0.0)
+        count = lambda x: jnp.sum(x, axis=-1).astype(float)  # noqa: E731
+        combined = _Combined(count(good), count(wrong), count(use), jnp.sum(dev, -1), jnp.sum(dev * dev, -1))
+        out = None
+        if record:
+            kept_f = (jnp.moveaxis(frames.codes, 1, -1), jnp.mod(frames.phase, 2.0 * jnp.pi), frames.amplitude, valid_f)
+            kept_f = jax.tree_util.tree_map(lambda x: jnp.moveaxis(x, 0, 1), kept_f)  # points first
+            out = (kept_f, depth, valid, wrong)
+        return (per, combined), out
+
+    (per_sums, combined), kept = run_blocks(step, (prepared.consts, reference, truth), sweep.samples, iterations,
+                                            keep, chains.n_phases)
+    kept_f = None if kept is None else jax.tree_util.tree_map(lambda x: jnp.moveaxis(x, 1, 0), kept[0])
+    per = jax.vmap(lambda ch, p, s, k: assemble(ch, sweep, p, s, k, iterations))(chains, prepared, per_sums, kept_f)
+    shape = d.shape
+    points = lambda x: x.reshape(shape + x.shape[1:])  # noqa: E731
+    n = combined.good
+    enough = n >= 2
+    n_safe = jnp.where(enough, n, 2.0)
+    mean_dev = combined.dev / n_safe
+    var = jnp.maximum(combined.dev2 - n_safe * mean_dev**2, 0.0) / (n_safe - 1.0)
+    to_m = extended / (2.0 * jnp.pi)
+    mean = jnp.mod(reference + to_m * mean_dev, extended)
+    frames = (None, None, None) if kept is None else tuple(points(x) for x in kept[1:])
     return MultiFrequencyResult(
-        frequencies_hz=jnp.asarray(freqs), extended_range_m=jnp.asarray(extended), distance_m=per.distance_m[0],
-        per_frequency=per, depth_m=depth, valid=valid, wrong_unwrap=wrong,
-        depth_mean_m=mean_angle * extended / (2.0 * jnp.pi), depth_std_m=std_angle * extended / (2.0 * jnp.pi),
-        wrong_unwrap_fraction=jnp.where(n_valid > 0, jnp.sum(wrong, axis=1) / jnp.maximum(n_valid, 1), jnp.nan),
-        valid_fraction=jnp.mean(valid, axis=1),
+        frequencies_hz=freqs, extended_range_m=jnp.asarray(extended), distance_m=d, per_frequency=per,
+        depth_m=frames[0], valid=frames[1], wrong_unwrap=frames[2],
+        depth_mean_m=points(jnp.where(enough, mean, jnp.nan)),
+        depth_std_m=points(jnp.where(enough, to_m * jnp.sqrt(var), jnp.nan)),
+        wrong_unwrap_fraction=points(jnp.where(combined.valid > 0, combined.wrong / jnp.maximum(combined.valid, 1.0),
+                                               jnp.nan)),
+        valid_fraction=points(combined.valid / float(iterations)),
     )

@@ -1,25 +1,56 @@
-"""Noise sources of the pixel (thesis §2.4.2, §3.2.3, §4.2.12-4.2.14).
+"""The pixel's temporal noise sources and the one noise budget (thesis §2.4.2, §3.2.3, §4.2.12-4.2.14).
 
-All in electrons referred to the integration node (conversion gain e / C_int, C_int = C_diode +
+Every source is one small class that states
+
+- where it acts: :data:`BEFORE_LIMIT` (on a tap's collected charge, before SBI and saturation) or
+  :data:`AFTER_LIMIT` (on the held charge, after them);
+- its variance per tap and phase image, in electrons^2 at the integration node, from the expected
+  charges (:class:`tofjax._mixer.TapCharges`);
+- how it is sampled: Gaussian, independent per tap, phase image and frame. Sources acting at one node
+  are independent Gaussians, so the Monte Carlo draws their sum once per tap and node.
+
+The :class:`NoiseBudget` is the tuple of sources. The analytic path, the Monte Carlo, the noise
+breakdown (:class:`tofjax.NoiseBreakdown`) and the closed-form estimates all read it, so a new source
+is one class here, added to :data:`NOISE_SOURCES` (docs/model.md, "Adding a noise source").
+
+Electrons are referred to the integration node (conversion gain e / C_int, C_int = C_diode +
 C_sample&hold):
 
-- reset noise: kTC on the integration capacitance, sqrt(k T C_int) / e (Eq 2.22);
-- hold noise: kTC of the sample-and-hold switch on C_sample&hold, sqrt(k T / C_sh) volts, i.e.
-  C_int sqrt(k T / C_sh) / e electrons;
 - photon shot noise: Poisson, variance = mean, of every photo-electron a tap collects (signal and
   background, including those SBI later compensates) (Eq 2.24);
-- dark signal: mean slope t C_int / e per tap (§4.2.14) and its shot noise sqrt(mean). The
-  thesis' "dark slope sigma" is read as the pixel-to-pixel (fixed-pattern) spread of the slope,
-  not as temporal noise (docs/model.md).
+- dark shot noise: variance = the mean dark electrons, slope t C_int / e per tap (§4.2.14). The
+  thesis' "dark slope sigma" is the pixel-to-pixel (fixed-pattern) spread, not temporal noise
+  (docs/model.md);
+- reset noise: kTC on the integration capacitance, sqrt(k T C_int) / e (Eq 2.22);
+- hold noise: kTC of the sample-and-hold switch on C_sample&hold, sqrt(k T / C_sh) volts, i.e.
+  C_int sqrt(k T / C_sh) / e electrons, after SBI and saturation (the readout samples the held
+  charge);
+- readout noise: the rest of the readout chain (source follower, column amplifier, ADC input) as
+  one rms number per tap from a data sheet, ``pixel.readout_noise_e`` (0 by default; the thesis
+  models none), after SBI and saturation.
 """
 
 from __future__ import annotations
 
+import abc
+from typing import TYPE_CHECKING, ClassVar
+
+import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from . import _constants as const
-from ._params import PhysicalConstants, Pixel
+from ._params import Params, PhysicalConstants, Pixel
+
+if TYPE_CHECKING:
+    from ._mixer import TapCharges
+    from ._result import NoiseBreakdown
+
+#: A source acting on the collected tap charge, before SBI and saturation.
+BEFORE_LIMIT = "before_limit"
+#: A source acting on the held tap charge, after SBI and saturation.
+AFTER_LIMIT = "after_limit"
+NODES = (BEFORE_LIMIT, AFTER_LIMIT)
 
 
 def _kelvin(pixel: Pixel) -> Array:
@@ -44,3 +75,160 @@ def dark_electrons(
     """Mean dark electrons of one tap: slope t C_int / e (§4.2.14)."""
     slope = pixel.dark_slope_mean_v_per_s if slope_v_per_s is None else slope_v_per_s
     return slope * integration_time_s * pixel.integration_capacitance_f / constants.elementary_charge_c
+
+
+class AbstractNoiseSource(eqx.Module):
+    """A temporal noise source: Gaussian, independent per tap, phase image and frame.
+
+    **Class attributes:** ``name`` (the key in :attr:`tofjax.NoiseBreakdown.sources` and the CSV
+    column ``noise_<name>_e``), ``node`` (:data:`BEFORE_LIMIT` or :data:`AFTER_LIMIT`), ``read``
+    (counted as read noise in the photon transfer curve, §5.5.1; else as photon shot noise).
+    """
+
+    name: ClassVar[str]
+    node: ClassVar[str]
+    read: ClassVar[bool]
+
+    @classmethod
+    @abc.abstractmethod
+    def from_params(cls, params: Params) -> AbstractNoiseSource:
+        """The source with its parameters taken from the camera."""
+
+    @abc.abstractmethod
+    def variance_e2(self, charges: TapCharges) -> tuple[Array, Array]:
+        """Variances of taps A and B, electrons^2, broadcastable to ``(*b, phases)``."""
+
+
+class PhotonShotNoise(AbstractNoiseSource):
+    """Shot noise of the photo-electrons (signal and background), variance = mean (Eq 2.24)."""
+
+    name: ClassVar[str] = "photon_shot"
+    node: ClassVar[str] = BEFORE_LIMIT
+    read: ClassVar[bool] = False
+
+    @classmethod
+    def from_params(cls, params: Params) -> PhotonShotNoise:
+        return cls()
+
+    def variance_e2(self, charges: TapCharges) -> tuple[Array, Array]:
+        return charges.photo_a, charges.photo_b
+
+
+class DarkShotNoise(AbstractNoiseSource):
+    """Shot noise of the dark electrons, variance = mean (§2.4.2.4, §4.2.14)."""
+
+    name: ClassVar[str] = "dark_shot"
+    node: ClassVar[str] = BEFORE_LIMIT
+    read: ClassVar[bool] = True
+
+    @classmethod
+    def from_params(cls, params: Params) -> DarkShotNoise:
+        return cls()
+
+    def variance_e2(self, charges: TapCharges) -> tuple[Array, Array]:
+        return charges.dark_a[..., None], charges.dark_b[..., None]
+
+
+class ResetNoise(AbstractNoiseSource):
+    """kTC noise of the reset on the integration capacitance (Eqs 2.21-2.22)."""
+
+    name: ClassVar[str] = "reset"
+    node: ClassVar[str] = BEFORE_LIMIT
+    read: ClassVar[bool] = True
+    sigma_e: Float[Array, ""]
+
+    @classmethod
+    def from_params(cls, params: Params) -> ResetNoise:
+        return cls(reset_noise_e(params.pixel, params.constants))
+
+    def variance_e2(self, charges: TapCharges) -> tuple[Array, Array]:
+        return self.sigma_e**2, self.sigma_e**2
+
+
+class HoldNoise(AbstractNoiseSource):
+    """kTC noise of the sample-and-hold, on the held charge (§4.2.12)."""
+
+    name: ClassVar[str] = "hold"
+    node: ClassVar[str] = AFTER_LIMIT
+    read: ClassVar[bool] = True
+    sigma_e: Float[Array, ""]
+
+    @classmethod
+    def from_params(cls, params: Params) -> HoldNoise:
+        return cls(hold_noise_e(params.pixel, params.constants))
+
+    def variance_e2(self, charges: TapCharges) -> tuple[Array, Array]:
+        return self.sigma_e**2, self.sigma_e**2
+
+
+class ReadoutNoise(AbstractNoiseSource):
+    """The readout chain's noise beyond kTC (source follower, column amplifier, ADC input), per tap,
+    on the held charge: a data sheet's read noise in electrons (``pixel.readout_noise_e``)."""
+
+    name: ClassVar[str] = "readout"
+    node: ClassVar[str] = AFTER_LIMIT
+    read: ClassVar[bool] = True
+    sigma_e: Float[Array, ""]
+
+    @classmethod
+    def from_params(cls, params: Params) -> ReadoutNoise:
+        return cls(params.pixel.readout_noise_e)
+
+    def variance_e2(self, charges: TapCharges) -> tuple[Array, Array]:
+        return self.sigma_e**2, self.sigma_e**2
+
+
+#: The pixel's noise sources, in the order of the breakdown.
+NOISE_SOURCES: tuple[type[AbstractNoiseSource], ...] = (ResetNoise, HoldNoise, PhotonShotNoise, DarkShotNoise,
+                                                        ReadoutNoise)
+
+
+class NoiseBudget(eqx.Module):
+    """The noise sources of a camera. ``enabled`` (``pixel.noise``) switches their effect on the
+    frames off; the breakdown still reports them."""
+
+    sources: tuple[AbstractNoiseSource, ...]
+    enabled: bool = eqx.field(static=True)
+
+    @classmethod
+    def from_params(cls, params: Params) -> NoiseBudget:
+        return cls(tuple(source.from_params(params) for source in NOISE_SOURCES), params.pixel.noise)
+
+    def variance_e2(self, charges: TapCharges, node: str) -> tuple[Array, Array]:
+        """Total variance of taps A and B from the sources at ``node`` (0 when disabled), ``(*b, phases)``."""
+        shape = charges.photo_a.shape
+        var_a = var_b = jnp.zeros(shape)
+        if self.enabled:
+            for source in self.sources:
+                if source.node == node:
+                    a, b = source.variance_e2(charges)
+                    var_a, var_b = var_a + a, var_b + b
+        return var_a, var_b
+
+    def differential_variance_e2(self, charges: TapCharges) -> Float[Array, "*b phases"]:
+        """Variance of A - B of one phase image from every source, where no limit acts."""
+        total = jnp.zeros(charges.photo_a.shape)
+        for node in NODES:
+            a, b = self.variance_e2(charges, node)
+            total = total + a + b
+        return total
+
+    def breakdown(self, charges: TapCharges, quantization_e: Float[Array, ""]) -> NoiseBreakdown:
+        """rms of every source in the differential A - B of one phase image (mean over the phases)."""
+        from ._result import NoiseBreakdown
+
+        shape = charges.signal_e.shape
+        sources, read, total = {}, jnp.zeros(shape), jnp.zeros(shape)
+        for source in self.sources:
+            a, b = source.variance_e2(charges)
+            var = jnp.mean(jnp.broadcast_to(a + b, charges.photo_a.shape), axis=-1)
+            sources[source.name] = jnp.sqrt(var)
+            total = total + var
+            if source.read:
+                read = read + var
+        quant = jnp.broadcast_to(quantization_e, shape)
+        return NoiseBreakdown(
+            signal_e=charges.signal_e, background_e=charges.background_e, dark_e=charges.dark_e, sources=sources,
+            read_e=jnp.sqrt(read), quantization_e=quant, total_e=jnp.sqrt(total + quant**2),
+            source_names=tuple(source.name for source in self.sources),
+        )

@@ -136,6 +136,7 @@ class Pixel(eqx.Module):
     temperature_c: Scalar = _float("pixel", "temperature_c")
     dark_slope_mean_v_per_s: Scalar = _float("pixel", "dark_slope_mean_v_per_s")
     dark_slope_sigma_v_per_s: Scalar = _float("pixel", "dark_slope_sigma_v_per_s")
+    readout_noise_e: Scalar = _float("pixel", "readout_noise_e")
     sbi: bool = _static("pixel", "sbi")
     noise: bool = _static("pixel", "noise")
 

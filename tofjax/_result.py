@@ -3,90 +3,156 @@
 from __future__ import annotations
 
 import equinox as eqx
-from jaxtyping import Array, Bool, Float
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Bool, Float, Int
+
+#: Bits of :attr:`Result.caveats` (analytic path): where the closed-form statistics are not what
+#: frames would show, and why.
+CAVEAT_NEAR_LIMIT = 1
+CAVEAT_COARSE_QUANTIZATION = 2
+CAVEAT_LOW_SNR = 4
+CAVEATS = {
+    CAVEAT_NEAR_LIMIT: "near a limit: saturation, the SBI floor or an ADC rail lies within 3 standard deviations of "
+                "an expected tap charge or code, so some frames would be clipped or invalid; the analytic "
+                "statistics assume none are (run the Monte Carlo there)",
+    CAVEAT_COARSE_QUANTIZATION: "coarse quantisation: the noise of a phase image is below 0.5 LSB, too little to dither "
+                         "the ADC's staircase; the analytic expected code and quantisation variance assume it is "
+                         "dithered (run the Monte Carlo there)",
+    CAVEAT_LOW_SNR: "low SNR: the phase noise exceeds 0.5 rad, so the depth wraps around the unambiguity range in "
+             "many frames; the depth standard deviation is that of the wrapped (circular) deviation, bounded "
+             "by d_u / sqrt(12) (a uniform phase), not a Gaussian width",
+}
+
+
+def describe_caveats(code: int) -> list[str]:
+    """The texts of the caveat bits set in ``code``."""
+    return [text for bit, text in CAVEATS.items() if int(code) & bit]
 
 
 class NoiseBreakdown(eqx.Module):
     """Electron counts of one phase image (both taps) and the rms noise of each source in the
-    differential A - B, per sweep sample (the photon transfer curve, Figs 5.12, 5.14, 5.17).
+    differential A - B, per operating point (the photon transfer curve, Figs 5.12, 5.14, 5.17).
 
-    - ``signal_e``: photo-electrons from the illumination.
-    - ``background_e``: photo-electrons from the background light.
-    - ``dark_e``: dark electrons.
-    - ``reset_e``, ``hold_e``: kTC noise of the reset and of the sample-and-hold.
-    - ``photon_shot_e``: shot noise of the signal and background electrons.
-    - ``dark_shot_e``: shot noise of the dark electrons.
-    - ``read_e``: reset, hold and dark shot noise in quadrature (§5.5.1).
+    - ``signal_e``, ``background_e``, ``dark_e``: photo-electrons from the illumination and from the
+      background light, and dark electrons.
+    - ``sources``: source name -> rms electrons (:data:`tofjax.NOISE_SOURCES`: ``reset``, ``hold``,
+      ``photon_shot``, ``dark_shot``; also as attributes ``reset_e``, ...).
+    - ``read_e``: the read-noise sources (reset, hold and dark shot noise, §5.5.1) in quadrature.
     - ``quantization_e``: rms quantisation error (q / sqrt(12) for an ideal ADC, more with DNL)
       referred to electrons (0 without ADC).
-    - ``total_e``: read, photon shot and quantisation noise in quadrature.
+    - ``total_e``: every source and the quantisation in quadrature.
     """
 
-    signal_e: Float[Array, " samples"]
-    background_e: Float[Array, " samples"]
-    dark_e: Float[Array, " samples"]
-    reset_e: Float[Array, " samples"]
-    hold_e: Float[Array, " samples"]
-    photon_shot_e: Float[Array, " samples"]
-    dark_shot_e: Float[Array, " samples"]
-    read_e: Float[Array, " samples"]
-    quantization_e: Float[Array, " samples"]
-    total_e: Float[Array, " samples"]
+    signal_e: Float[Array, "*b"]
+    background_e: Float[Array, "*b"]
+    dark_e: Float[Array, "*b"]
+    sources: dict[str, Float[Array, "*b"]]
+    read_e: Float[Array, "*b"]
+    quantization_e: Float[Array, "*b"]
+    total_e: Float[Array, "*b"]
+    #: The sources' names in the budget's order (a dict pytree comes back sorted from ``jit``).
+    source_names: tuple[str, ...] = eqx.field(static=True, default=())
+
+    def source_items(self) -> list[tuple[str, Array]]:
+        """(name, rms electrons) of every source, in the budget's order."""
+        return [(name, self.sources[name]) for name in self.source_names]
+
+    @property
+    def reset_e(self) -> Array:
+        """kTC noise of the reset (both taps)."""
+        return self.sources["reset"]
+
+    @property
+    def hold_e(self) -> Array:
+        """kTC noise of the sample-and-hold (both taps)."""
+        return self.sources["hold"]
+
+    @property
+    def photon_shot_e(self) -> Array:
+        """Shot noise of the signal and background electrons."""
+        return self.sources["photon_shot"]
+
+    @property
+    def dark_shot_e(self) -> Array:
+        """Shot noise of the dark electrons."""
+        return self.sources["dark_shot"]
 
 
 class Result(eqx.Module):
-    """Everything a sweep produced. Leading axis: sweep samples; ``frames`` = Monte Carlo
-    iterations; ``phases`` = phase images.
+    """Everything a sweep produced. Leading axes ``*b``: the operating points (the sweep's shape:
+    a 1-D sweep, a 2-D image of distances, ...); ``frames`` = Monte Carlo frames kept per point;
+    ``phases`` = phase images.
 
     The expected (noise-free) chain: ``tap_a_e``/``tap_b_e`` electrons each tap holds after SBI
     and saturation, ``tap_a_v``/``tap_b_v`` their voltages, ``differential_v`` = V_B - V_A,
-    ``code_mean`` the expected raw code. Per frame (Monte Carlo only, else ``None``): raw
-    ``codes``, ``phase_rad``, wrapped ``depth_m``, ``depth_unwrapped_m`` (along the sweep),
-    ``amplitude_lsb`` and ``valid``. Statistics: depth mean (wrapped and unwrapped) and standard
-    deviation (circular), amplitude mean and standard deviation (LSB), SNR (Eq 5.1), and the
-    fractions of frames that are valid, pixel-saturated, ADC-saturated and had SBI engaged, and
-    ``full_well_fraction``: the expected charge of the fullest tap (before SBI and saturation) over
-    the full well, the headroom to SBI/saturation (> 1: SBI engaged or saturated).
+    ``code_mean`` the expected raw code (Monte Carlo: the mean over all frames). Per frame (Monte
+    Carlo with ``keep_frames``, else ``None``): raw ``codes``, ``phase_rad``, wrapped ``depth_m``,
+    ``depth_unwrapped_m`` (along a 1-D sweep), ``amplitude_lsb`` and ``valid``. Statistics: depth
+    mean (wrapped and unwrapped) and standard deviation (circular), amplitude mean and standard
+    deviation (LSB), SNR (Eq 5.1), and the fractions of frames that are valid, pixel-saturated,
+    ADC-saturated and had SBI engaged, and ``full_well_fraction``: the expected charge of the
+    fullest tap (before SBI and saturation) over the full well, the headroom to SBI/saturation
+    (> 1: SBI engaged or saturated). ``caveats`` (analytic path only): bits of :data:`CAVEATS`
+    where the closed form is not what frames would show (0: none).
 
-    In the hard mode, statistics of samples without two valid frames (analytic: whose expected
+    In the hard mode, statistics of points without two valid frames (analytic: whose expected
     signal saturates) are NaN and flagged by ``valid_fraction``; never reported as 0 m.
     """
 
     method: str = eqx.field(static=True)
     sweep_variable: str = eqx.field(static=True)
     n_frames: int = eqx.field(static=True)
-    sweep_values: Float[Array, " samples"]
-    distance_m: Float[Array, " samples"]
-    illuminance_lx: Float[Array, " samples"]
-    integration_time_s: Float[Array, " samples"]
+    sweep_values: Float[Array, "*b"]
+    distance_m: Float[Array, "*b"]
+    illuminance_lx: Float[Array, "*b"]
+    integration_time_s: Float[Array, "*b"]
     unambiguity_range_m: Float[Array, ""]
-    tap_a_e: Float[Array, "samples phases"]
-    tap_b_e: Float[Array, "samples phases"]
-    tap_a_v: Float[Array, "samples phases"]
-    tap_b_v: Float[Array, "samples phases"]
-    differential_v: Float[Array, "samples phases"]
-    code_mean: Float[Array, "samples phases"]
-    codes: Float[Array, "samples frames phases"] | None
-    phase_rad: Float[Array, "samples frames"] | None
-    depth_m: Float[Array, "samples frames"] | None
-    depth_unwrapped_m: Float[Array, "samples frames"] | None
-    amplitude_lsb: Float[Array, "samples frames"] | None
-    valid: Bool[Array, "samples frames"] | None
-    depth_mean_m: Float[Array, " samples"]
-    depth_unwrapped_mean_m: Float[Array, " samples"]
-    depth_std_m: Float[Array, " samples"]
-    amplitude_mean_lsb: Float[Array, " samples"]
-    amplitude_std_lsb: Float[Array, " samples"]
-    intensity_e: Float[Array, " samples"]
-    snr_db: Float[Array, " samples"]
+    tap_a_e: Float[Array, "*b phases"]
+    tap_b_e: Float[Array, "*b phases"]
+    tap_a_v: Float[Array, "*b phases"]
+    tap_b_v: Float[Array, "*b phases"]
+    differential_v: Float[Array, "*b phases"]
+    code_mean: Float[Array, "*b phases"]
+    codes: Float[Array, "*b frames phases"] | None
+    phase_rad: Float[Array, "*b frames"] | None
+    depth_m: Float[Array, "*b frames"] | None
+    depth_unwrapped_m: Float[Array, "*b frames"] | None
+    amplitude_lsb: Float[Array, "*b frames"] | None
+    valid: Bool[Array, "*b frames"] | None
+    depth_mean_m: Float[Array, "*b"]
+    depth_unwrapped_mean_m: Float[Array, "*b"]
+    depth_std_m: Float[Array, "*b"]
+    amplitude_mean_lsb: Float[Array, "*b"]
+    amplitude_std_lsb: Float[Array, "*b"]
+    intensity_e: Float[Array, "*b"]
+    snr_db: Float[Array, "*b"]
     noise: NoiseBreakdown
-    valid_fraction: Float[Array, " samples"]
-    pixel_saturated_fraction: Float[Array, " samples"]
-    adc_saturated_fraction: Float[Array, " samples"]
-    sbi_active_fraction: Float[Array, " samples"]
-    full_well_fraction: Float[Array, " samples"]
+    valid_fraction: Float[Array, "*b"]
+    pixel_saturated_fraction: Float[Array, "*b"]
+    adc_saturated_fraction: Float[Array, "*b"]
+    sbi_active_fraction: Float[Array, "*b"]
+    full_well_fraction: Float[Array, "*b"]
+    caveats: Int[Array, "*b"] | None = None
 
     @property
-    def relative_depth_std(self) -> Float[Array, " samples"]:
+    def relative_depth_std(self) -> Float[Array, "*b"]:
         """Depth standard deviation over the true distance (Figs 5.11b, 5.13, 5.16b)."""
         return self.depth_std_m / self.distance_m
+
+    def caveat_summary(self) -> list[str]:
+        """One line per caveat that applies somewhere: how many points, and why (empty: none)."""
+        if self.caveats is None:
+            return []
+        codes = np.asarray(self.caveats).reshape(-1)
+        lines = []
+        for bit, text in CAVEATS.items():
+            count = int(np.sum((codes & bit) != 0))
+            if count:
+                lines.append(f"{count} of {codes.size} points: {text}")
+        return lines
+
+
+def snr_db(noise: NoiseBreakdown) -> Array:
+    """SNR = 20 log10(n_signal / n_total_noise), Eq 5.1."""
+    return 20.0 * jnp.log10(noise.signal_e / noise.total_e)

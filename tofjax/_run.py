@@ -13,7 +13,8 @@ import time
 import jax
 
 from ._config import Config
-from ._model import predict, simulate
+from ._analytic import predict
+from ._montecarlo import simulate
 from ._multifrequency import MultiFrequencyResult, simulate_multifrequency
 from ._result import Result
 from ._sweep import Sweep
@@ -38,9 +39,10 @@ class Run:
 
 
 def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int | None = None, seed: int = 0,
-              fixed_pattern: bool = False) -> Run:
+              fixed_pattern: bool = False, keep_frames: int = 0) -> Run:
     """Run ``sweep`` with ``config``: ``method`` ``"mc"`` or ``"analytic"``; ``iterations`` frames per
-    sample (default ``pixel.iterations``); ``seed`` of the Monte Carlo.
+    sample (default ``pixel.iterations``); ``seed`` of the Monte Carlo; ``keep_frames``: frames per
+    sample to keep for plots (at most ``iterations``).
 
     Raises ``ValueError`` for an unknown method, and for several modulation frequencies with the
     analytic method (range extension is a per-frame decision, so it needs frames).
@@ -54,11 +56,14 @@ def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int 
                          "need the Monte Carlo method (mc; on the command line: --method mc)")
     t0 = time.perf_counter()
     multi = None
+    keep = min(keep_frames, iterations)
     if len(freqs) > 1:
-        multi = jax.device_get(simulate_multifrequency(params, sweep, jax.random.key(seed), iterations, freqs))
+        multi = jax.device_get(simulate_multifrequency(params, sweep, jax.random.key(seed), iterations, freqs,
+                                                       keep_frames=keep))
         result = jax.tree_util.tree_map(lambda x: x[0], multi.per_frequency)
     elif method == "mc":
-        result = simulate(params, sweep, jax.random.key(seed), iterations, fixed_pattern=fixed_pattern)
+        result = simulate(params, sweep, jax.random.key(seed), iterations, fixed_pattern=fixed_pattern,
+                          keep_frames=keep)
     else:
         result = predict(params, sweep)
     result = jax.device_get(result)

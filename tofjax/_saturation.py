@@ -1,27 +1,34 @@
 """Pixel saturation and suppression of background illumination (thesis §3.2.4-3.2.5,
-§4.2.10-4.2.11, Figs 3.12-3.13, 5.2, 5.15).
+§4.2.10-4.2.11, Figs 3.12-3.13, 5.2, 5.15): the chain's limit stage.
 
 Quantities are electrons collected by a tap, n = (V_reset - V) C / e; the full well is
 N_sat = (V_reset - V_saturated) C / e.
 
-- Without SBI a tap stops at N_sat (V = V_saturated); the pixel is saturated when either tap is.
-- With SBI, from the moment the first tap reaches the threshold the common mode is removed: the
-  full tap stays at N_sat and the same compensating charge is taken from the other, so the
-  difference n_A - n_B keeps integrating. The other tap rises towards V_reset, and the pixel
-  saturates only when it gets there, i.e. when |n_A - n_B| reaches N_sat. In closed form both
-  taps lose max(0, max(n_A, n_B) - N_sat), then are floored at 0 (V_reset).
+- Without SBI (:class:`Saturation`) a tap stops at N_sat (V = V_saturated); the pixel is saturated
+  when either tap is.
+- With SBI (:class:`SBI`), from the moment the first tap reaches the threshold the common mode is
+  removed: the full tap stays at N_sat and the same compensating charge is taken from the other, so
+  the difference n_A - n_B keeps integrating. The other tap rises towards V_reset, and the pixel
+  saturates only when it gets there, i.e. when |n_A - n_B| reaches N_sat. In closed form both taps
+  lose max(0, max(n_A, n_B) - N_sat), then are floored at 0 (V_reset).
 
 The hard mode is exact. The smooth mode replaces max(0, x) by a C^2 switch of half-width s (the
 temperature, in electrons): 0 below -s, x above +s, and s (2u^3 - u^4) with u = (x/s + 1)/2 in
-between; max(a, b) = b + relu(a - b). It tends to the hard mode as s -> 0, has finite first and
-second derivatives everywhere, and - unlike softplus, whose exponential tails would shift a tap
-holding a few hundred electrons - it is exact wherever every tap holds more than s electrons and
-lies more than s below the full well (and, with SBI, the taps differ by more than s or both are
-more than s below it).
+between (its derivative is the smoothstep 3u^2 - 2u^3); max(a, b) = b + relu(a - b). It tends to the
+hard mode as s -> 0, has finite first and second derivatives everywhere, and - unlike softplus,
+whose exponential tails would shift a tap holding a few hundred electrons - it is exact wherever
+every tap holds more than s electrons and lies more than s below the full well.
+
+Each limit states what the chain needs of it: its value, the slopes of the held differential with
+respect to each tap's charge (the analytic path), the hard saturation/SBI flags, and where it is
+linear (the Monte Carlo draws one normal per phase image there, docs/model.md).
 """
 
 from __future__ import annotations
 
+import abc
+
+import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float
 
@@ -34,39 +41,151 @@ def _relu(x: Array, temperature: Array | None) -> Array:
     return jnp.where(x >= temperature, x, jnp.where(x <= -temperature, 0.0, inner))
 
 
+def _relu_slope(x: Array, temperature: Array | None) -> Array:
+    """d relu / dx: the step (hard; 0 at the kink) or the smoothstep of the C^2 switch."""
+    if temperature is None:
+        return jnp.where(x > 0.0, 1.0, 0.0)
+    u = jnp.clip(0.5 * (x / temperature + 1.0), 0.0, 1.0)
+    return u * u * (3.0 - 2.0 * u)
+
+
 def _max(a: Array, b: Array, temperature: Array | None) -> Array:
-    return b + _relu(a - b, temperature)
+    """max(a, b) = b + relu(a - b); exactly a where a leads by the switch's width."""
+    if temperature is None:
+        return jnp.maximum(a, b)
+    return jnp.where(a - b >= temperature, a, b + _relu(a - b, temperature))
 
 
-def saturate(
-    n_a: Float[Array, "*b"],
-    n_b: Float[Array, "*b"],
-    full_well_e: Float[Array, ""],
-    sbi: bool,
-    temperature_e: Float[Array, ""] | None = None,
-) -> tuple[Float[Array, "*b"], Float[Array, "*b"]]:
-    """Apply SBI (if enabled) and saturation to the electrons collected by taps A and B.
+def _min_with(x: Array, top: Array, temperature: Array | None) -> Array:
+    """min(x, top) = x - relu(x - top); exactly ``top`` beyond the switch's width (so pinned taps
+    hold exactly the full well, not the full well plus rounding)."""
+    if temperature is None:
+        return jnp.minimum(x, top)
+    return jnp.where(x - top >= temperature, top, x - _relu(x - top, temperature))
 
-    **Arguments:**
-    - ``n_a``, ``n_b``: electrons the taps would collect without any limit.
-    - ``full_well_e``: N_sat = (V_reset - V_saturated) C / e.
-    - ``sbi``: whether the SBI circuit is enabled.
-    - ``temperature_e``: ``None`` for the hard mode, else the smooth-mode temperature in electrons.
 
-    **Returns:** the electrons the taps hold at the end of the exposure.
+class AbstractLimit(eqx.Module):
+    """The limit stage: the taps' charge after SBI/saturation.
+
+    **Fields:** ``full_well_e`` (N_sat), ``temperature_e`` (``None``: hard mode; else the smooth
+    switch's half-width in electrons).
     """
-    if not sbi:
-        return n_a - _relu(n_a - full_well_e, temperature_e), n_b - _relu(n_b - full_well_e, temperature_e)
-    removed = _relu(_max(n_a, n_b, temperature_e) - full_well_e, temperature_e)
-    a, b = n_a - removed, n_b - removed
-    return a + _relu(-a, temperature_e), b + _relu(-b, temperature_e)
+
+    full_well_e: eqx.AbstractVar[Float[Array, ""]]
+    temperature_e: eqx.AbstractVar[Float[Array, ""] | None]
+
+    @abc.abstractmethod
+    def __call__(self, n_a: Array, n_b: Array) -> tuple[Array, Array]:
+        """Electrons the taps hold at the end of the exposure."""
+
+    @abc.abstractmethod
+    def slopes(self, n_a: Array, n_b: Array) -> tuple[Array, Array]:
+        """d(held_A - held_B)/dn_A and d(held_A - held_B)/dn_B, in closed form."""
+
+    @abc.abstractmethod
+    def flags(self, n_a: Array, n_b: Array) -> tuple[Bool[Array, "*b"], Bool[Array, "*b"]]:
+        """(pixel saturated, SBI engaged) for tap charges ``n_a``, ``n_b`` (hard criteria)."""
+
+    @abc.abstractmethod
+    def passes(self, n_a: Array, n_b: Array, reach_a: Array, reach_b: Array) -> Array:
+        """Whether every charge within ``reach`` electrons of ``n`` keeps its differential and leaves
+        the pixel unsaturated (the analytic path's linearisation holds there)."""
+
+    @abc.abstractmethod
+    def linear(self, n_a: Array, n_b: Array, reach_a: Array, reach_b: Array) -> tuple[Array, Array]:
+        """Whether every charge within ``reach`` electrons of ``n`` passes (:meth:`passes`) with
+        constant flags, and the (constant) SBI flag there: ``(linear, sbi_engaged)``."""
+
+    @property
+    def _margin(self) -> Array | float:
+        return 0.0 if self.temperature_e is None else 2.0 * self.temperature_e
 
 
-def flags(
-    n_a: Float[Array, "*b"], n_b: Float[Array, "*b"], full_well_e: Float[Array, ""], sbi: bool
-) -> tuple[Bool[Array, "*b"], Bool[Array, "*b"]]:
-    """(pixel saturated, SBI engaged) for unlimited tap electrons ``n_a``, ``n_b`` (hard criteria)."""
-    high = jnp.maximum(n_a, n_b)
-    if not sbi:
-        return high >= full_well_e, jnp.zeros_like(high, dtype=bool)
-    return jnp.abs(n_a - n_b) >= full_well_e, high > full_well_e
+class Saturation(AbstractLimit):
+    """Without SBI: each tap stops at the full well."""
+
+    full_well_e: Float[Array, ""]
+    temperature_e: Float[Array, ""] | None = None
+
+    def __call__(self, n_a, n_b):
+        s, n = self.temperature_e, self.full_well_e
+        return _min_with(n_a, n, s), _min_with(n_b, n, s)
+
+    def slopes(self, n_a, n_b):
+        s, n = self.temperature_e, self.full_well_e
+        return 1.0 - _relu_slope(n_a - n, s), -(1.0 - _relu_slope(n_b - n, s))
+
+    def flags(self, n_a, n_b):
+        high = jnp.maximum(n_a, n_b)
+        return high >= self.full_well_e, jnp.zeros(jnp.shape(high), dtype=bool)
+
+    def passes(self, n_a, n_b, reach_a, reach_b):
+        top = self.full_well_e - self._margin
+        return (n_a + reach_a < top) & (n_b + reach_b < top)
+
+    def linear(self, n_a, n_b, reach_a, reach_b):
+        ok = self.passes(n_a, n_b, reach_a, reach_b)
+        return ok, jnp.zeros(jnp.shape(ok), dtype=bool)
+
+
+class SBI(AbstractLimit):
+    """With the SBI circuit: the common mode above the full well is removed (module docstring)."""
+
+    full_well_e: Float[Array, ""]
+    temperature_e: Float[Array, ""] | None = None
+
+    def _removed(self, n_a, n_b):
+        s = self.temperature_e
+        return _relu(_max(n_a, n_b, s) - self.full_well_e, s)
+
+    def __call__(self, n_a, n_b):
+        s = self.temperature_e
+        removed = self._removed(n_a, n_b)
+        a, b = n_a - removed, n_b - removed
+        return a + _relu(-a, s), b + _relu(-b, s)
+
+    def slopes(self, n_a, n_b):
+        s, n = self.temperature_e, self.full_well_e
+        high_a = _relu_slope(n_a - n_b, s)  # d max(a, b) / da
+        engaged = _relu_slope(_max(n_a, n_b, s) - n, s)
+        r_a, r_b = engaged * high_a, engaged * (1.0 - high_a)  # d removed / da, / db
+        removed = self._removed(n_a, n_b)
+        keep_a = 1.0 - _relu_slope(removed - n_a, s)  # the floor of tap A is inactive
+        keep_b = 1.0 - _relu_slope(removed - n_b, s)
+        return keep_a * (1.0 - r_a) + keep_b * r_a, -keep_a * r_b - keep_b * (1.0 - r_b)
+
+    def flags(self, n_a, n_b):
+        return jnp.abs(n_a - n_b) >= self.full_well_e, jnp.maximum(n_a, n_b) > self.full_well_e
+
+    def passes(self, n_a, n_b, reach_a, reach_b):
+        # The floors stay inactive: both taps above 0 and, once SBI removes the common mode,
+        # their difference below the full well.
+        margin, n = self._margin, self.full_well_e
+        return (n_a - reach_a > margin) & (n_b - reach_b > margin) \
+            & (jnp.abs(n_a - n_b) + reach_a + reach_b < n - margin)
+
+    def linear(self, n_a, n_b, reach_a, reach_b):
+        margin, n = self._margin, self.full_well_e
+        ok = self.passes(n_a, n_b, reach_a, reach_b)
+        never = jnp.maximum(n_a + reach_a, n_b + reach_b) < n - margin
+        always = jnp.maximum(n_a - reach_a, n_b - reach_b) > n + margin
+        return ok & (never | always), always
+
+
+def full_well_e(v_reset_v: Array, v_saturated_v: Array, electrons_per_volt: Array) -> Array:
+    """N_sat = (V_reset - V_saturated) C_int / e."""
+    return (v_reset_v - v_saturated_v) * electrons_per_volt
+
+
+def saturate(n_a: Float[Array, "*b"], n_b: Float[Array, "*b"], full_well: Float[Array, ""], sbi: bool,
+             temperature_e: Float[Array, ""] | None = None) -> tuple[Float[Array, "*b"], Float[Array, "*b"]]:
+    """Apply SBI (if enabled) and saturation to the electrons of taps A and B (module docstring)."""
+    stage = SBI(full_well, temperature_e) if sbi else Saturation(full_well, temperature_e)
+    return stage(n_a, n_b)
+
+
+def flags(n_a: Float[Array, "*b"], n_b: Float[Array, "*b"], full_well: Float[Array, ""],
+          sbi: bool) -> tuple[Bool[Array, "*b"], Bool[Array, "*b"]]:
+    """(pixel saturated, SBI engaged) for unlimited tap electrons (hard criteria)."""
+    stage = SBI(full_well) if sbi else Saturation(full_well)
+    return stage.flags(n_a, n_b)

@@ -14,10 +14,9 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from typing import Any
-
-import jax
 
 from ._constants import ELEMENTARY_CHARGE_C, PLANCK_J_S, SPEED_OF_LIGHT_M_PER_S
 
@@ -142,6 +141,9 @@ KEYS: tuple[Key, ...] = (
        0.0, 100.0),
     _k("pixel", "dark_slope_sigma_v_per_s", "float", 1.0, "V/s",
        "pixel-to-pixel (fixed-pattern) sigma of the single-ended dark slope (1 mV/ms)", 0.0, 100.0),
+    _k("pixel", "readout_noise_e", "float", 0.0, "e-",
+       "readout noise of one tap beyond kTC (source follower, column amplifier, ADC input), rms electrons; "
+       "0 = none", 0.0, 1e5),
     _k("pixel", "sbi", "bool", True, "-", "suppression of background illumination circuit enabled"),
     _k("pixel", "noise", "bool", True, "-", "temporal noise enabled"),
     _k("pixel", "iterations", "int", 2000, "1", "Monte Carlo repetitions (frames) per sweep sample", 1, 10_000_000),
@@ -190,7 +192,8 @@ def suggest(name: str, options) -> str:
 
 
 def _is_tracer(x) -> bool:
-    return isinstance(x, jax.core.Tracer)
+    jax = sys.modules.get("jax")  # nothing can be a tracer before JAX is imported
+    return jax is not None and isinstance(x, jax.core.Tracer)
 
 
 def _fmt(value) -> str:

@@ -1,17 +1,24 @@
-"""Sweeps over distance, background illuminance or integration time (thesis §4.2.1.3)."""
+"""Operating points: sweeps over distance, background illuminance or integration time (thesis
+§4.2.1.3), and any batch of them (an image of distances)."""
 
 from __future__ import annotations
+
+import math
 
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ._params import Scene
+from ._params import Params, Scene
 from ._schema import KEY_BY_DOTTED, SWEEPS, check_array, suggest
 
 #: Sweep variable -> the scene field it replaces.
 SCENE_FIELD = {"distance": "distance_m", "illuminance": "illuminance_lx", "integration_time": "integration_time_s"}
+
+
+def _f64(x):
+    return jnp.asarray(x, dtype=float)
 
 
 def _optional_f64(x):
@@ -19,23 +26,26 @@ def _optional_f64(x):
 
 
 class Sweep(eqx.Module):
-    """The sample values of one swept quantity; the other two stay at the scene's nominal values
-    unless given per sample (as in a measured file, where each row records all three).
+    """The values of one swept quantity; the other two stay at the scene's nominal values unless
+    given per point (as in a measured file, where each row records all three).
+
+    The values may have any shape (``*b``): a 1-D sweep, or e.g. a 2-D image of distances (one
+    per pixel); every result field then has that leading shape.
 
     **Fields:**
     - ``variable``: ``"distance"`` (m), ``"illuminance"`` (lx) or ``"integration_time"`` (s); static.
-    - ``values``: the sample values, shape ``(samples,)``, in SI units; traced, so a gradient
-      with respect to e.g. the distance is available.
-    - ``distance_m``, ``illuminance_lx``, ``integration_time_s``: optional per-sample values of
-      the quantities that are not swept (``None``: the scene's nominal value). Use
+    - ``values``: the values, shape ``(*b)``, in SI units; traced, so a gradient with respect to
+      e.g. the distance is available.
+    - ``distance_m``, ``illuminance_lx``, ``integration_time_s``: optional per-point values of
+      the quantities that are not swept (``None``: the scene's nominal value), shape ``(*b)``. Use
       :meth:`Sweep.points` to build a sweep from three columns.
     """
 
     variable: str = eqx.field(static=True)
-    values: Float[Array, " samples"] = eqx.field(converter=lambda x: jnp.asarray(x, dtype=float))
-    distance_m: Float[Array, " samples"] | None = eqx.field(default=None, converter=_optional_f64)
-    illuminance_lx: Float[Array, " samples"] | None = eqx.field(default=None, converter=_optional_f64)
-    integration_time_s: Float[Array, " samples"] | None = eqx.field(default=None, converter=_optional_f64)
+    values: Float[Array, "*b"] = eqx.field(converter=_f64)
+    distance_m: Float[Array, "*b"] | None = eqx.field(default=None, converter=_optional_f64)
+    illuminance_lx: Float[Array, "*b"] | None = eqx.field(default=None, converter=_optional_f64)
+    integration_time_s: Float[Array, "*b"] | None = eqx.field(default=None, converter=_optional_f64)
 
     def __check_init__(self):
         if self.variable not in SWEEPS:
@@ -43,8 +53,9 @@ class Sweep(eqx.Module):
                 f"sweep = {self.variable!r} is not allowed: expected one of "
                 + ", ".join(repr(s) for s in SWEEPS) + suggest(self.variable, SWEEPS)
             )
-        if self.values.ndim != 1 or self.values.shape[0] < 1:
-            raise ValueError(f"sweep values must be a non-empty 1-D array, got shape {self.values.shape}")
+        if self.values.ndim < 1 or self.values.size < 1:
+            raise ValueError(f"sweep values must be a non-empty array of at least one dimension, got shape "
+                             f"{self.values.shape}")
         check_array("scene", SCENE_FIELD[self.variable], self.values)
         for name in SCENE_FIELD.values():
             column = getattr(self, name)
@@ -56,7 +67,7 @@ class Sweep(eqx.Module):
 
     @classmethod
     def points(cls, variable: str, distance_m, illuminance_lx, integration_time_s) -> Sweep:
-        """A sweep whose every sample sets all three operating-point quantities."""
+        """A sweep whose every point sets all three operating-point quantities."""
         columns = {"distance_m": distance_m, "illuminance_lx": illuminance_lx, "integration_time_s": integration_time_s}
         if variable not in SCENE_FIELD:
             raise ValueError(f"sweep = {variable!r} is not allowed: expected one of "
@@ -74,11 +85,17 @@ class Sweep(eqx.Module):
         return cls(variable, np.linspace(start, stop, samples))
 
     @property
+    def shape(self) -> tuple[int, ...]:
+        """The batch shape of the operating points."""
+        return tuple(self.values.shape)
+
+    @property
     def samples(self) -> int:
-        return self.values.shape[0]
+        """The number of operating points."""
+        return math.prod(self.values.shape)
 
     def operating_points(self, scene: Scene) -> tuple[Array, Array, Array]:
-        """(distance_m, illuminance_lx, integration_time_s), each of shape ``(samples,)``."""
+        """(distance_m, illuminance_lx, integration_time_s), each of the sweep's shape."""
         out = []
         for variable, name in SCENE_FIELD.items():
             given = getattr(self, name)
@@ -89,3 +106,11 @@ class Sweep(eqx.Module):
             else:
                 out.append(jnp.broadcast_to(getattr(scene, name), self.values.shape))
         return tuple(out)
+
+
+def check_inputs(params, sweep) -> None:
+    """Type checks of the public entry points' first arguments."""
+    if not isinstance(params, Params):
+        raise TypeError(f"params must be a tofjax.Params, got {type(params).__name__}")
+    if not isinstance(sweep, Sweep):
+        raise TypeError(f"sweep must be a tofjax.Sweep, got {type(sweep).__name__}")

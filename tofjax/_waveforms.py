@@ -42,14 +42,14 @@ def _wrap(t: Array) -> Array:
 
 
 def _fourier_series_of_pulse(u: Array, duty: Array, order: int) -> Array:
-    k = jnp.arange(1, order + 1).reshape((1,) * u.ndim + (order,))
+    k = jnp.arange(1, order + 1, dtype=float).reshape((1,) * u.ndim + (order,))
     terms = 2.0 * duty * jnp.sinc(k * duty) * jnp.cos(2.0 * jnp.pi * k * u[..., None])
     return duty + jnp.sum(terms, axis=-1)
 
 
 def _gauss_extended(u: Array, duty: Array, order: int) -> Array:
     # Sum the neighbouring periods so wide, low-order pulses stay periodic.
-    images = jnp.arange(-2, 3).reshape((1,) * u.ndim + (5,))
+    images = jnp.arange(-2, 3, dtype=float).reshape((1,) * u.ndim + (5,))
     x = (u[..., None] + images) / (0.5 * duty)
     return jnp.sum(jnp.exp(-jnp.log(2.0) * x ** (2 * order)), axis=-1)
 
@@ -80,7 +80,7 @@ def waveform(wave: AbstractWaveform, t: Float[Array, "*t"]) -> Float[Array, "*t"
         peak = _gauss_extended(jnp.zeros(()), d, wave.gauss_order)
         return _gauss_extended(u, d, wave.gauss_order) / peak
     if wave.shape == "fourier":
-        grid = jnp.arange(N_GRID) / N_GRID - 0.5
+        grid = jnp.arange(N_GRID, dtype=float) / N_GRID - 0.5
         peak = jnp.max(jnp.abs(_fourier_series_of_pulse(grid, d, wave.fourier_order)))
         return jnp.abs(_fourier_series_of_pulse(u, d, wave.fourier_order)) / peak
     raise ValueError(f"waveform shape = {wave.shape!r} is not one of sine, pulse, fourier, gauss_extended, "
@@ -95,7 +95,7 @@ def fourier_coefficients(
     c_0 is the waveform's mean over the period: the fraction of the peak power actually emitted.
     """
     d = wave.duty_cycle
-    k = jnp.arange(n_harmonics + 1)
+    k = jnp.arange(n_harmonics + 1, dtype=float)
     if wave.shape == "pulse":
         c = d * jnp.sinc(k * d)
     elif wave.shape == "sine":
@@ -106,13 +106,13 @@ def fourier_coefficients(
     elif wave.shape == "sawtooth":
         # w = (t + D/2)/D on |t| < D/2: the odd part int t e^{-iat} dt = -2i (sin(ah)/a^2 - h cos(ah)/a).
         h = 0.5 * d
-        a = 2.0 * jnp.pi * jnp.where(k == 0, 1, k)
-        odd = -2j * (jnp.sin(a * h) / a**2 - h * jnp.cos(a * h) / a) / d
-        c = 0.5 * d * jnp.sinc(k * d) + jnp.where(k == 0, 0.0, odd)
+        a = 2.0 * jnp.pi * jnp.where(k == 0, 1.0, k)
+        odd = ((jnp.sin(a * h) / a**2 - h * jnp.cos(a * h) / a) / d).astype(complex) * -2j
+        c = (0.5 * d * jnp.sinc(k * d)).astype(complex) + jnp.where(k == 0, 0j, odd)
     elif wave.shape in ("gauss_extended", "fourier"):
         if n_harmonics > N_GRID // 2:
             raise ValueError(f"n_harmonics = {n_harmonics} exceeds the numeric grid: allowed <= {N_GRID // 2}")
-        t = jnp.arange(N_GRID) / N_GRID
+        t = jnp.arange(N_GRID, dtype=float) / N_GRID
         c = jnp.fft.rfft(waveform(wave, t))[: n_harmonics + 1] / N_GRID
     else:
         raise ValueError(f"waveform shape = {wave.shape!r} is not one of sine, pulse, fourier, gauss_extended, "

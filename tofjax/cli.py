@@ -8,25 +8,56 @@ So this command reaches every package while ``tofjax`` itself imports none of th
 Errors in the user's input (arguments, configuration values, files) are printed as one line,
 ``tofjax: error: ...``, without a traceback, and exit with status 2; a :class:`CommandError`
 carries its own message and exit status.
+
+Start-up: this module and the subcommands' ``register`` functions import neither JAX nor NumPy, so
+``tofjax --help`` answers at once; a command imports what it runs. Commands that compute use JAX's
+persistent compilation cache (:func:`enable_compilation_cache`): the second run of a command starts
+warm.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
+import math
+import os
 import sys
 import time
 from importlib.metadata import entry_points
 from pathlib import Path
 
-import numpy as np
-
 from . import __version__
-from ._config import Config, default_config_text, load_config
-from ._schema import SWEEPS, ConfigError
-from .sweepfile import SweepFileError
 
 _UNITS = {"distance": ("m", 1.0), "illuminance": ("lx", 1.0), "integration_time": ("ms", 1e3)}
+#: The sweep variables (as :data:`tofjax._schema.SWEEPS`, repeated here so that --help needs no import).
+_SWEEPS = ("distance", "illuminance", "integration_time")
+#: Environment variable that moves (a directory) or disables ("off", "0", "") the compilation cache.
+CACHE_ENV = "TOFJAX_CACHE_DIR"
+
+
+def compilation_cache_dir() -> str | None:
+    """Where the CLI keeps compiled programs: ``$TOFJAX_CACHE_DIR``; else an existing
+    ``$JAX_COMPILATION_CACHE_DIR``; else ``$XDG_CACHE_HOME/tofjax/jax`` (``~/.cache/tofjax/jax``).
+    ``None`` when ``TOFJAX_CACHE_DIR`` is ``off``, ``0``, ``false`` or empty."""
+    chosen = os.environ.get(CACHE_ENV)
+    if chosen is not None:
+        return None if chosen.strip().lower() in ("", "0", "off", "false", "no", "none") else chosen
+    if os.environ.get("JAX_COMPILATION_CACHE_DIR"):
+        return os.environ["JAX_COMPILATION_CACHE_DIR"]
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "tofjax", "jax")
+
+
+def enable_compilation_cache() -> str | None:
+    """Turn on JAX's persistent compilation cache for this process (:func:`compilation_cache_dir`);
+    programs that took 0.1 s or more to compile are kept. Returns the directory (or ``None``)."""
+    path = compilation_cache_dir()
+    if path is None:
+        return None
+    import jax
+
+    jax.config.update("jax_compilation_cache_dir", path)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.1)
+    return path
 
 
 class CommandError(Exception):
@@ -83,7 +114,7 @@ def finite_float(text: str) -> float:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not np.isfinite(value):
+    if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
     return value
 
@@ -99,7 +130,7 @@ def build_parser() -> argparse.ArgumentParser:
                                      "default to the configuration ([scene] *_from/*_to, samples; "
                                      "[pixel] iterations).")
     sim.add_argument("--config", type=Path, help="TOML configuration (default: built-in defaults)")
-    sim.add_argument("--sweep", required=True, choices=SWEEPS, help="the swept quantity")
+    sim.add_argument("--sweep", required=True, choices=_SWEEPS, help="the swept quantity")
     sim.add_argument("--from", dest="start", type=finite_float, help="sweep start, SI units (m, lx, s)")
     sim.add_argument("--to", dest="stop", type=finite_float, help="sweep end, SI units (m, lx, s)")
     sim.add_argument("--samples", type=positive_int, help="number of sweep samples")
@@ -123,6 +154,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _summary(result, elapsed_s: float, out: Path) -> str:
+    import numpy as np
+
     unit, scale = _UNITS[result.sweep_variable]
     values = np.asarray(result.sweep_values)
     rows = np.unique(np.linspace(0, len(values) - 1, min(len(values), 10)).round().astype(int))
@@ -142,6 +175,7 @@ def _summary(result, elapsed_s: float, out: Path) -> str:
     method = f"Monte Carlo, {result.n_frames} frames/sample" if result.method == "mc" else "analytic"
     lines.append(f"{len(values)} samples ({method}); unambiguity range {float(result.unambiguity_range_m):.4f} m; "
                  f"{elapsed_s:.2f} s; wrote {out}")
+    lines.extend(f"note: {line}" for line in result.caveat_summary())
     return "\n".join(lines)
 
 
@@ -183,6 +217,8 @@ class _Status:
 def _multifrequency_columns(mf) -> dict:
     """Sweep-file columns of a multi-frequency run: combined depth statistics, the first frequency's
     amplitude, the wrong-unwrap fraction and each frequency's own depth noise."""
+    import numpy as np
+
     primary = mf.per_frequency
     cols = {
         "distance_m": primary.distance_m[0], "integration_time_s": primary.integration_time_s[0],
@@ -198,6 +234,11 @@ def _multifrequency_columns(mf) -> dict:
 
 
 def _simulate(args) -> int:
+    import json
+
+    import numpy as np
+
+    from ._config import Config, load_config
     from ._run import run_sweep
     from .sweepfile import columns_from_result, utc_now, write_sweep
 
@@ -210,8 +251,11 @@ def _simulate(args) -> int:
     iterations = args.iterations or config.iterations
     freqs = config.modulation_frequencies_hz
     label = f"simulating {sweep.samples} samples" + (f" x {iterations} frames" if args.method == "mc" else "")
+    enable_compilation_cache()
     with _Status(label):
-        run = run_sweep(config, sweep, args.method, iterations, args.seed, args.fixed_pattern)
+        # The report's scatter plots show up to 200 frames per sample; a CSV needs none.
+        run = run_sweep(config, sweep, args.method, iterations, args.seed, args.fixed_pattern,
+                        keep_frames=200 if args.report is not None else 0)
     result, multi, elapsed = run.result, run.multifrequency, run.elapsed_s
     metadata = {
         "sweep": args.sweep, "source": "simulation", "method": args.method,
@@ -247,10 +291,15 @@ def _simulate(args) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    from ._schema import ConfigError
+    from .sweepfile import SweepFileError
+
     try:
         if getattr(args, "run", None) is not None:
             return args.run(args)
         if args.command == "config":
+            from ._config import default_config_text
+
             text = default_config_text()
             if args.out:
                 try:

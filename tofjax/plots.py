@@ -130,10 +130,12 @@ def photon_transfer_curve(result, ax=None) -> Figure:
     n = result.noise
     x = np.asarray(n.signal_e) + np.asarray(n.background_e)
     order = np.argsort(x)
-    for values, name, style in [(n.signal_e, "signal", "k-"), (n.total_e, "total noise", "C2-"),
-                                (n.photon_shot_e, "photon shot noise", "C4-"), (n.read_e, "read noise", "C1-"),
-                                (n.reset_e, "reset noise", "C0:"), (n.hold_e, "hold noise", "C5:"),
-                                (n.dark_shot_e, "dark shot noise", "C7:"), (n.quantization_e, "quantisation", "C8:")]:
+    curves = [(n.signal_e, "signal", "k-"), (n.total_e, "total noise", "C2-"), (n.read_e, "read noise", "C1-")]
+    # Every source of the noise budget, dotted (the shot noise of the light solid).
+    styles = {"photon_shot": "C4-", "reset": "C0:", "hold": "C5:", "dark_shot": "C7:"}
+    curves += [(value, name.replace("_", " ") + " noise", styles.get(name, f"C{6 + i % 4}:"))
+               for i, (name, value) in enumerate(n.source_items())]
+    for values, name, style in curves + [(n.quantization_e, "quantisation", "C8:")]:
         y = np.asarray(values)[order]
         if np.all(y > 0):
             ax.loglog(x[order], y, style, label=name)
@@ -241,8 +243,10 @@ def multifrequency_distance(result, ax=None) -> Figure:
     with the wrong-unwrap fraction (§2.2, Fig 5.9)."""
     fig, ax = _axes(ax)
     d = np.asarray(result.distance_m)
-    frames = np.asarray(result.depth_m)[:, :200]
-    ax.plot(np.repeat(d, frames.shape[1]), frames.ravel(), ",", color="C0", alpha=0.3)
+    frames = _frames(result, result.depth_m)
+    if frames is not None:
+        ax.plot(np.repeat(d, frames.shape[1]), frames.ravel(), ",", color="C0", alpha=0.3)
+    ax.plot(d, np.asarray(result.depth_mean_m), "C1-", lw=1, label="mean")
     ax.plot(d, np.mod(d, float(result.extended_range_m)), "k:", lw=0.8, label="ideal")
     ax.set_xlabel("real distance [m]")
     ax.set_ylabel("unwrapped distance [m]")

@@ -16,11 +16,12 @@ import base64
 import html
 from pathlib import Path
 
+import jax
 import numpy as np
 
 from . import plots
 from ._estimate import cw_depth_noise, pulsed_depth_noise
-from ._model import predict
+from ._analytic import predict
 from ._sweep import Sweep
 
 _UNITS = {"distance": "m", "illuminance": "lx", "integration_time": "s"}
@@ -33,28 +34,34 @@ def _first(x: np.ndarray, mask: np.ndarray):
 def headlines(params, result) -> dict:
     """The headline figures (module docstring) as a dict of plain numbers (None: not reached)."""
     scene = params.scene
-    nominal = predict(params, Sweep("distance", [float(scene.distance_m)]))
+    d = np.geomspace(0.05, 50.0, 600)
+    lux = np.concatenate([[0.0], np.geomspace(1.0, 2e5, 500)])
+    # One analytic call for the three scans: the nominal point, distances, background illuminances.
+    nominal_d, nominal_lux, nominal_t = float(scene.distance_m), float(scene.illuminance_lx), float(scene.integration_time_s)
+    points = Sweep.points("distance", np.concatenate([[nominal_d], d, np.full(lux.shape, nominal_d)]),
+                          np.concatenate([[nominal_lux], np.full(d.shape, nominal_lux), lux]),
+                          np.full(1 + d.size + lux.size, nominal_t))
+    all_scans = jax.device_get(predict(params, points))
+    at = lambda field, lo, hi: np.asarray(getattr(all_scans, field))[lo:hi]  # noqa: E731
     out = {
-        "nominal_distance_m": float(scene.distance_m), "nominal_illuminance_lx": float(scene.illuminance_lx),
-        "nominal_integration_time_s": float(scene.integration_time_s),
-        "nominal_depth_std_m": float(nominal.depth_std_m[0]),
-        "nominal_relative_depth_std": float(nominal.depth_std_m[0] / scene.distance_m),
-        "nominal_amplitude_lsb": float(nominal.amplitude_mean_lsb[0]),
+        "nominal_distance_m": nominal_d, "nominal_illuminance_lx": nominal_lux,
+        "nominal_integration_time_s": nominal_t,
+        "nominal_depth_std_m": float(at("depth_std_m", 0, 1)[0]),
+        "nominal_relative_depth_std": float(at("depth_std_m", 0, 1)[0] / nominal_d),
+        "nominal_amplitude_lsb": float(at("amplitude_mean_lsb", 0, 1)[0]),
         "unambiguity_range_m": float(params.unambiguity_range_m),
     }
-    d = np.geomspace(0.05, 50.0, 600)
-    scan = predict(params, Sweep("distance", d))
-    valid = np.asarray(scan.valid_fraction) > 0
+    scan = slice(1, 1 + d.size)
+    valid = at("valid_fraction", scan.start, scan.stop) > 0
     out["valid_from_m"] = _first(d, valid)
-    rel = np.asarray(scan.depth_std_m) / d
+    rel = at("depth_std_m", scan.start, scan.stop) / d
     start = np.argmax(valid) if np.any(valid) else len(d)
     beyond = np.arange(len(d)) >= start
     for level in (0.01, 0.02):
         out[f"relative_noise_{int(level * 100)}pct_at_m"] = _first(d, beyond & valid & (rel >= level))
-    lux = np.concatenate([[0.0], np.geomspace(1.0, 2e5, 500)])
-    lux_scan = predict(params, Sweep("illuminance", lux))
-    out["sbi_engages_at_lx"] = _first(lux, np.asarray(lux_scan.sbi_active_fraction) > 0) if params.pixel.sbi else None
-    out["pixel_saturates_at_lx"] = _first(lux, np.asarray(lux_scan.pixel_saturated_fraction) > 0)
+    lo = 1 + d.size
+    out["sbi_engages_at_lx"] = _first(lux, at("sbi_active_fraction", lo, None) > 0) if params.pixel.sbi else None
+    out["pixel_saturates_at_lx"] = _first(lux, at("pixel_saturated_fraction", lo, None) > 0)
     out["dominant_noise"] = dominant_noise(result)
     return out
 
@@ -117,6 +124,8 @@ def write_report(directory, config, result, elapsed_s: float, csv_path, multifre
     ]
     if multifrequency is not None:
         rows.append(("extended range (multi-frequency)", _fmt(float(multifrequency.extended_range_m), "m")))
+    for line in result.caveat_summary():
+        rows.append(("analytic path caveat", line))
     rows.append(("run time", f"{elapsed_s:.2f} s ({result.method}, {len(np.asarray(result.sweep_values))} samples"
                              + (f" x {result.n_frames} frames)" if result.n_frames else ")")))
     regions = "".join(f"<li>{html.escape(r['source'])}: {r['from']:.4g} - {r['to']:.4g} {sweep_unit}</li>"

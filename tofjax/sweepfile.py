@@ -312,16 +312,19 @@ def write_sweep(path: str | os.PathLike, metadata: Mapping[str, object], columns
             writer.write_row({name: a[i] for name, a in arrays.items()})
 
 
-#: Columns a simulation writes beyond the required ones (the noise breakdown and flags).
-SIMULATION_COLUMNS = (
-    "depth_unwrapped_mean_m", "snr_db", "intensity_e", "signal_e", "background_e", "dark_e", "noise_reset_e",
-    "noise_hold_e", "noise_photon_shot_e", "noise_dark_shot_e", "noise_read_e", "noise_quantization_e",
-    "noise_total_e", "pixel_saturated_fraction", "adc_saturated_fraction", "sbi_active_fraction",
+#: Columns a simulation writes beyond the required ones (the noise breakdown and flags): these, then
+#: ``noise_<source>_e`` for every source of the noise budget (:data:`tofjax.NOISE_SOURCES`: reset, hold,
+#: photon_shot, dark_shot), then :data:`SIMULATION_TAIL_COLUMNS`.
+SIMULATION_COLUMNS = ("depth_unwrapped_mean_m", "snr_db", "intensity_e", "signal_e", "background_e", "dark_e")
+SIMULATION_TAIL_COLUMNS = (
+    "noise_read_e", "noise_quantization_e", "noise_total_e", "pixel_saturated_fraction", "adc_saturated_fraction",
+    "sbi_active_fraction",
 )
 
 
 def columns_from_result(result) -> dict[str, np.ndarray]:
-    """The sweep-file columns of a :class:`tofjax.Result` (required columns first)."""
+    """The sweep-file columns of a :class:`tofjax.Result` (required columns first; an analytic
+    result adds ``analytic_caveats``, the bits of :data:`tofjax.CAVEATS`)."""
     n = result.noise
     frames = np.full(np.shape(result.distance_m), result.n_frames, dtype=float)
     cols = {
@@ -331,10 +334,12 @@ def columns_from_result(result) -> dict[str, np.ndarray]:
         "amplitude_std_lsb": result.amplitude_std_lsb, "valid_fraction": result.valid_fraction,
         "depth_unwrapped_mean_m": result.depth_unwrapped_mean_m, "snr_db": result.snr_db,
         "intensity_e": result.intensity_e, "signal_e": n.signal_e, "background_e": n.background_e,
-        "dark_e": n.dark_e, "noise_reset_e": n.reset_e, "noise_hold_e": n.hold_e,
-        "noise_photon_shot_e": n.photon_shot_e, "noise_dark_shot_e": n.dark_shot_e, "noise_read_e": n.read_e,
-        "noise_quantization_e": n.quantization_e, "noise_total_e": n.total_e,
+        "dark_e": n.dark_e,
+        **{f"noise_{name}_e": value for name, value in n.source_items()},
+        "noise_read_e": n.read_e, "noise_quantization_e": n.quantization_e, "noise_total_e": n.total_e,
         "pixel_saturated_fraction": result.pixel_saturated_fraction,
         "adc_saturated_fraction": result.adc_saturated_fraction, "sbi_active_fraction": result.sbi_active_fraction,
     }
-    return {k: np.asarray(v, dtype=float) for k, v in cols.items()}
+    if result.caveats is not None:
+        cols["analytic_caveats"] = result.caveats
+    return {k: np.asarray(v, dtype=float).reshape(-1) for k, v in cols.items()}

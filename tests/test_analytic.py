@@ -1,5 +1,6 @@
-"""The whole chain against closed forms, the thesis' results (ch. 5) and the Monte Carlo /
-analytic agreement; JAX transformations of the public API."""
+"""The analytic path (tofjax/_analytic.py): the whole chain against closed forms and the thesis'
+results (ch. 5), its caveats, the smooth mode's values and gradients, any shape of operating
+points; JAX transformations of the public API."""
 
 import equinox as eqx
 import jax
@@ -8,7 +9,7 @@ import numpy as np
 import pytest
 
 import tofjax as tj
-from tofjax._model import _pixel_dark_slopes
+from helpers import fd_check
 
 
 def _ideal(n, ill="pulse", ref="pulse", ill_duty=0.5, ref_duty=0.5):
@@ -46,23 +47,6 @@ def test_rectangular_waveforms_wiggle(n, oscillations, lo_cm, hi_cm):
     assert abs(np.mean(err)) < 1e-5  # the error oscillates around zero
     assert lo_cm < 100 * np.max(np.abs(err)) < hi_cm
     assert np.argmax(np.abs(np.fft.rfft(err - err.mean()))) == oscillations
-
-
-def test_monte_carlo_depth_noise_agrees_with_the_analytic_path():
-    p = tj.Params()
-    sweep = tj.Sweep.linspace("distance", 0.45, 4.5, 24)
-    analytic = tj.predict(p, sweep)
-    mc = tj.simulate(p, sweep, jax.random.key(11), 4000)
-    # Noise of one phase image in LSB, from the electron budget.
-    per_volt = float(p.pixel.integration_capacitance_f / p.constants.elementary_charge_c)
-    noise_lsb = np.asarray(analytic.noise.total_e) / per_volt / float(p.adc.lsb_v) * 1.05
-    strong = np.asarray(analytic.amplitude_mean_lsb) > 20 * noise_lsb
-    assert strong.sum() >= 4
-    ratio = np.asarray(mc.depth_std_m)[strong] / np.asarray(analytic.depth_std_m)[strong]
-    np.testing.assert_allclose(ratio, 1.0, atol=0.05)
-    amp_ratio = np.asarray(mc.amplitude_mean_lsb)[strong] / np.asarray(analytic.amplitude_mean_lsb)[strong]
-    np.testing.assert_allclose(amp_ratio, 1.0, atol=0.01)
-    np.testing.assert_allclose(mc.depth_unwrapped_mean_m, analytic.depth_unwrapped_mean_m, atol=3e-3)
 
 
 def test_verification_magnitudes_of_section_5_5():
@@ -128,60 +112,50 @@ def test_full_well_fraction_is_the_headroom_to_sbi_and_saturation():
     assert upper / 2 < float(r.full_well_fraction[0]) < upper
 
 
-def test_saturated_samples_are_flagged_and_never_zero():
-    p = tj.Params(pixel=tj.Pixel(sbi=False))
-    sweep = tj.Sweep("distance", np.array([0.2, 0.3, 1.0]))
-    for r in (tj.predict(p, sweep), tj.simulate(p, sweep, jax.random.key(0), 50)):
-        vf = np.asarray(r.valid_fraction)
-        assert vf[0] == 0.0 and vf[-1] == 1.0
-        assert np.asarray(r.pixel_saturated_fraction)[0] == 1.0
-        for field in (r.depth_mean_m, r.depth_std_m, r.amplitude_mean_lsb):
-            assert np.isnan(np.asarray(field)[0]) and np.isfinite(np.asarray(field)[-1])
-    mc = tj.simulate(p, sweep, jax.random.key(0), 50)
-    assert not np.any(np.asarray(mc.valid)[0])
-
-
-def test_noise_switch_and_determinism():
-    sweep = tj.Sweep.linspace("distance", 0.5, 3.0, 5)
-    quiet = tj.simulate(tj.Params(pixel=tj.Pixel(noise=False)), sweep, jax.random.key(0), 20)
-    assert np.all(np.asarray(quiet.depth_std_m) == 0.0)
-    assert np.all(np.asarray(tj.predict(tj.Params(pixel=tj.Pixel(noise=False)), sweep).depth_std_m) == 0.0)
-    a = tj.simulate(tj.Params(), sweep, jax.random.key(1), 30)
-    b = tj.simulate(tj.Params(), sweep, jax.random.key(1), 30)
-    c = tj.simulate(tj.Params(), sweep, jax.random.key(2), 30)
-    np.testing.assert_array_equal(a.codes, b.codes)
-    assert not np.array_equal(np.asarray(a.codes), np.asarray(c.codes))
-
-
-def test_fixed_pattern_dark_slopes_follow_the_population():
-    p = tj.Params()
-    slopes = jax.vmap(lambda k: _pixel_dark_slopes(p, k))(jax.random.split(jax.random.key(0), 20000))
-    slopes = np.asarray(slopes).ravel()
-    assert np.all(slopes > 0)
-    assert np.mean(slopes) == pytest.approx(1.4, rel=0.02)
-    assert np.std(slopes) == pytest.approx(1.0, rel=0.03)
-
-
-def _fd_check(f, x0, rtol=1e-4):
-    g = float(jax.grad(f)(x0))
-    h = 1e-6 * abs(x0)
-    fd = (float(f(x0 + h)) - float(f(x0 - h))) / (2 * h)
-    scale = abs(float(f(x0))) / abs(x0)  # a derivative this small is "zero" at this precision
-    assert np.isfinite(g)
-    assert abs(g - fd) <= rtol * max(abs(fd), 1e-6 * scale), (g, fd)
 
 
 PARAMS_TO_DIFF = {
-    "contrast": lambda p: p.pixel.demodulation_contrast,
-    "responsivity": lambda p: p.pixel.photo_responsivity_a_per_w,
-    "dark_slope": lambda p: p.pixel.dark_slope_mean_v_per_s,
-    "k_lens": lambda p: p.camera.k_lens,
+    "contrast": "pixel.demodulation_contrast",
+    "responsivity": "pixel.photo_responsivity_a_per_w",
+    "dark_slope": "pixel.dark_slope_mean_v_per_s",
+    "k_lens": "camera.k_lens",
 }
+LEAVES = tuple(PARAMS_TO_DIFF.values())
+
+
+@eqx.filter_jit
+def _smooth_values(x, params, sweep):
+    """(depth std, mean amplitude) of the first point in the smooth mode, with the leaves LEAVES = x."""
+    r = tj.predict(tj.set_leaves(params, dict(zip(LEAVES, x, strict=True))), sweep, smooth=tj.Smooth())
+    return jnp.stack([r.depth_std_m[0], r.amplitude_mean_lsb[0]])
+
+
+#: d(depth std, amplitude) / d(LEAVES): one compilation per camera structure.
+_smooth_jacobian = eqx.filter_jit(jax.jacfwd(_smooth_values))
+
+
+def _check_smooth_gradients(base, sweep, names, rtol=1e-4):
+    """The Jacobian against central finite differences (step 1e-6 relative) of both outputs, for
+    the leaves ``names``; a derivative below 1e-6 of value/leaf counts as zero at this precision."""
+    x0 = np.array([float(tj.get_leaf(base, leaf)) for leaf in LEAVES])
+    jac = np.asarray(_smooth_jacobian(jnp.asarray(x0), base, sweep))
+    at = np.asarray(_smooth_values(jnp.asarray(x0), base, sweep))
+    assert np.all(np.isfinite(jac))
+    for name in names:
+        i = LEAVES.index(PARAMS_TO_DIFF[name])
+        h = np.zeros(len(LEAVES))
+        h[i] = 1e-6 * abs(x0[i])
+        up, down = (np.asarray(_smooth_values(jnp.asarray(x0 + sign * h), base, sweep)) for sign in (1, -1))
+        fd = (up - down) / (2 * h[i])
+        for k in range(2):
+            g = jac[k, i]
+            assert abs(g - fd[k]) <= rtol * max(abs(fd[k]), 1e-6 * abs(at[k]) / abs(x0[i])), (name, k, g, fd[k])
 
 
 @pytest.mark.parametrize("case", ["nominal", "sbi_engaged", "tap_saturated"])
-@pytest.mark.parametrize("name", list(PARAMS_TO_DIFF))
-def test_smooth_gradients_match_finite_differences(case, name):
+def test_smooth_gradients_match_finite_differences(case):
+    """Depth noise and amplitude with respect to contrast, responsivity, dark slope and lens
+    transmission, at the nominal point, where SBI engages, where a tap saturates."""
     if case == "nominal":
         base, d = tj.Params(), 1.0
     elif case == "sbi_engaged":
@@ -189,20 +163,12 @@ def test_smooth_gradients_match_finite_differences(case, name):
     else:
         base, d = tj.Params(pixel=tj.Pixel(sbi=False)), 0.35  # a tap saturates (hard mode: invalid)
     sweep = tj.Sweep("distance", np.array([d]))
-    smooth = tj.Smooth()
-    where = PARAMS_TO_DIFF[name]
     hard = tj.predict(base, sweep)
     if case == "tap_saturated":
         assert float(hard.pixel_saturated_fraction[0]) == 1.0
     if case == "sbi_engaged":
         assert float(hard.sbi_active_fraction[0]) == 1.0 and float(hard.valid_fraction[0]) == 1.0
-
-    for field in ("depth_std_m", "amplitude_mean_lsb"):
-        def f(x, field=field):
-            r = tj.predict(eqx.tree_at(where, base, x), sweep, smooth=smooth)
-            return getattr(r, field)[0]
-
-        _fd_check(jax.jit(f), float(where(base)))
+    _check_smooth_gradients(base, sweep, list(PARAMS_TO_DIFF))
 
 
 def test_public_api_under_jit_vmap_grad():
@@ -281,3 +247,33 @@ def test_sweep_points_set_every_operating_quantity():
         tj.Sweep.points("distance", d, lux[:2], t)
     with pytest.raises(ValueError, match="scene.integration_time_s = .* is out of range"):
         tj.Sweep.points("distance", d, lux, -t)
+
+
+def test_caveats_say_where_the_closed_form_is_not_what_frames_show():
+    """None at the nominal point; near a limit where the SBI floor or the full well is within the
+    noise; an undithered ADC without noise; a wrapping phase at low SNR."""
+    d = np.array([1.0, 0.3775, 6.0])
+    r = tj.predict(tj.Params(pixel=tj.Pixel(sbi=False)), tj.Sweep("distance", d))
+    codes = np.asarray(r.caveats)
+    assert codes[0] == 0 and codes[1] & tj.CAVEAT_NEAR_LIMIT and not codes[2] & tj.CAVEAT_NEAR_LIMIT
+    quiet = tj.predict(tj.Params(pixel=tj.Pixel(noise=False)), tj.Sweep("distance", d))
+    assert np.all(np.asarray(quiet.caveats) & tj.CAVEAT_COARSE_QUANTIZATION)
+    dim = tj.predict(tj.Params(illumination=tj.Illumination(peak_power_w=0.02)), tj.Sweep("distance", d))
+    assert np.asarray(dim.caveats)[2] & tj.CAVEAT_LOW_SNR and len(dim.caveat_summary()) >= 1
+    assert tj.simulate(tj.Params(), tj.Sweep("distance", d), jax.random.key(0), 4).caveats is None
+
+
+@pytest.mark.parametrize("sbi", [False, True])
+def test_smooth_mode_is_bounded_and_differentiable_into_saturation(sbi):
+    """Down to where every tap sits at the full well (SBI off) or the differential reaches it (SBI on):
+    finite depth noise no larger than a uniform phase's, amplitudes within the ADC range, and
+    gradients equal to finite differences."""
+    p = tj.Params(pixel=tj.Pixel(sbi=sbi))
+    d = np.geomspace(0.12, 0.6, 40)
+    r = tj.predict(p, tj.Sweep("distance", d), smooth=tj.Smooth())
+    for field in ("depth_std_m", "amplitude_mean_lsb", "amplitude_std_lsb", "depth_mean_m"):
+        assert np.all(np.isfinite(np.asarray(getattr(r, field)))), field
+    assert np.all(np.asarray(r.depth_std_m) <= float(p.unambiguity_range_m) / np.sqrt(12) * (1 + 1e-9))
+    assert np.all(np.asarray(r.amplitude_mean_lsb) < 4096)
+    for x in (0.15, 0.3, 0.36):
+        _check_smooth_gradients(p, tj.Sweep("distance", [x]), ["contrast", "k_lens"], rtol=1e-3)

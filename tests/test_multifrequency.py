@@ -1,0 +1,59 @@
+"""Range extension with several modulation frequencies (thesis §2.2, Fig 5.9; tofjax/_multifrequency.py)."""
+
+import jax
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+
+import tofjax as tj
+from tofjax import plots
+from tofjax import sweepfile as sf
+from tofjax.cli import main
+
+
+def _ideal(shape="pulse", duty=0.5, n=4, noise=False):
+    return tj.Params(pixel=tj.Pixel(n_phases=n, noise=noise), adc=tj.ADC(enabled=False),
+                     illumination_waveform=tj.IlluminationWaveform(shape=shape, duty_cycle=duty),
+                     reference_waveform=tj.ReferenceWaveform(shape=shape, duty_cycle=duty))
+
+
+def test_dual_frequency_extends_the_range():
+    assert tj.extended_range_m([80.32e6, 60.24e6]) == pytest.approx(7.465, abs=1e-3)
+    d = np.linspace(0.01, 7.4, 300)
+    dim = tj.Params(**{**_ideal("sine", 1.0).__dict__, "illumination": tj.Illumination(peak_power_w=1e-3)})
+    noise_free = tj.simulate_multifrequency(dim, tj.Sweep("distance", d), jax.random.key(0), 2, [80.32e6, 60.24e6],
+                                            keep_frames=2)
+    assert np.all(noise_free.valid)
+    np.testing.assert_allclose(np.asarray(noise_free.depth_m)[:, 0], d, atol=1e-9)
+    assert not np.any(noise_free.wrong_unwrap)
+    noisy = tj.simulate_multifrequency(tj.Params(scene=tj.Scene(illuminance_lx=0.0)),
+                                       tj.Sweep.linspace("distance", 0.5, 7.4, 12), jax.random.key(1), 1500,
+                                       [80.32e6, 60.24e6], keep_frames=20)
+    wrong = np.asarray(noisy.wrong_unwrap_fraction)
+    assert np.all(wrong[:5] == 0.0)  # high SNR: never wrong
+    assert wrong[-1] > 0.1 and wrong[-1] > wrong[len(wrong) // 2]  # rises with distance
+    # combining frequencies beats each one alone where unwrapping is reliable
+    per = np.asarray(noisy.per_frequency.depth_std_m)
+    assert np.all(np.asarray(noisy.depth_std_m)[:5] < per[:, :5].min(axis=0))
+    fig = plots.multifrequency_distance(noisy)
+    assert fig.axes[0].lines[0].get_xdata().size == 12 * 20  # the kept frames
+    assert isinstance(fig, Figure)
+    with pytest.raises(ValueError, match="two or more distinct frequencies"):
+        tj.simulate_multifrequency(tj.Params(), tj.Sweep("distance", [1.0]), jax.random.key(0), 2, [80e6])
+
+
+def test_multifrequency_from_the_configuration(tmp_path, capsys):
+    cfg = tmp_path / "dual.toml"
+    cfg.write_text("[illumination_waveform]\nextra_modulation_frequencies_hz = [60.24e6]\n")
+    out = tmp_path / "dual.csv"
+    assert main(["simulate", "--config", str(cfg), "--sweep", "distance", "--from", "0.5", "--to", "7", "--samples",
+                 "8", "--iterations", "200", "--out", str(out)]) == 0
+    assert "extended range 7.4650 m" in capsys.readouterr().out
+    data = sf.read_sweep(out)
+    assert data.metadata["modulation_frequencies_hz"] == "80320000.0,60240000.0"
+    assert {"wrong_unwrap_fraction", "depth_std_m_f1", "depth_std_m_f2"} <= set(data.columns)
+    assert np.all(np.abs(data.columns["depth_mean_m"] - data.columns["distance_m"]) < 0.1)
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[illumination_waveform]\nextra_modulation_frequencies_hz = [80.32e6]\n")
+    assert main(["simulate", "--config", str(bad), "--sweep", "distance", "--out", str(out)]) == 2
+    assert "repeats a frequency" in capsys.readouterr().err

@@ -1,0 +1,93 @@
+"""The plots of Table 4.9 (tofjax/plots.py), checked through their data, not pixels."""
+
+import jax
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+
+import tofjax as tj
+from tofjax import plots
+
+
+def _ideal(shape="pulse", duty=0.5, n=4, noise=False):
+    return tj.Params(pixel=tj.Pixel(n_phases=n, noise=noise), adc=tj.ADC(enabled=False),
+                     illumination_waveform=tj.IlluminationWaveform(shape=shape, duty_cycle=duty),
+                     reference_waveform=tj.ReferenceWaveform(shape=shape, duty_cycle=duty))
+
+
+@pytest.fixture(scope="module")
+def runs():
+    p = tj.Params()
+    return {
+        "distance": tj.simulate(p, tj.Sweep.linspace("distance", 0.3, 4.5, 60), jax.random.key(0), 100, keep_frames=100),
+        "illuminance": tj.predict(p, tj.Sweep.linspace("illuminance", 0.0, 5000.0, 40)),
+        "integration_time": tj.predict(p, tj.Sweep.linspace("integration_time", 0.2e-3, 5e-3, 40)),
+    }
+
+
+def test_rectangular_cross_correlation_is_a_triangle():
+    """Fig 2.6b/5.3a: a 50 % pulse pair correlates to triangles; with constant electrons (one
+    unambiguity range at ~3.7 m, 1/d^2 nearly flat) the extrema are +-K N_s e / C."""
+    p = _ideal()
+    du = float(p.unambiguity_range_m)
+    d = 3.0 + np.arange(400) / 400 * du
+    r = tj.predict(p, tj.Sweep("distance", d))
+    v = np.asarray(r.differential_v)[:, 0]
+    scale = np.asarray(r.noise.signal_e) * float(p.pixel.demodulation_contrast) * 1.602176634e-19 / 14e-15
+    shape = v / scale  # the correlation normalised by its electrons: 2 a - 1
+    assert shape.max() == pytest.approx(1.0, abs=3e-3) and shape.min() == pytest.approx(-1.0, abs=3e-3)
+    # piecewise linear: slopes of +-4 per period (from +1 to -1 in half a period), corners at the extrema
+    slopes = np.diff(shape) / np.diff(d / du)
+    straight = np.abs(np.abs(slopes) - 4.0) < 0.05
+    assert straight.mean() > 0.95
+    fig = plots.cross_correlation(r)
+    np.testing.assert_array_equal(fig.axes[0].lines[0].get_ydata(), np.asarray(r.differential_v)[:, 0])
+
+
+def test_unwrapped_distance_is_monotonic_where_the_noise_is_small(runs):
+    r = runs["distance"]
+    mean = np.asarray(r.depth_unwrapped_mean_m)
+    ok = np.isfinite(mean)
+    assert np.all(np.diff(mean[ok]) > 0)
+    frames = np.asarray(r.depth_unwrapped_m)
+    near = np.asarray(r.distance_m) < 1.5  # frame noise (< 1 cm) far below the 7 cm sample step
+    good = np.all(np.isfinite(frames[near & ok]), axis=1)
+    assert np.all(np.diff(frames[near & ok][good], axis=0) > 0)
+
+
+@pytest.mark.parametrize("sweep", ["distance", "illuminance", "integration_time"])
+def test_every_applicable_plot_draws_with_units(runs, sweep):
+    r = runs[sweep]
+    names = plots.applicable(sweep)
+    assert ("wiggling" in names) == (sweep == "distance")  # Table 4.9: distance-only plots
+    for name in names:
+        fig = plots.PLOTS[name][0](r)
+        assert isinstance(fig, Figure)
+        for ax in fig.axes:
+            assert "[" in ax.get_xlabel() or "electrons" in ax.get_xlabel()
+            assert "[" in ax.get_ylabel() or ax.get_ylabel() == "electrons"
+    for fig in (plots.tap_voltages(r, tj.Params()), plots.waveforms(tj.Params()),
+                plots.fov_footprint(tj.Params()), plots.fov_footprint(tj.Params(illumination=tj.Illumination(
+                    fov_deg=[60.0, 45.0])))):
+        assert isinstance(fig, Figure)
+
+
+def test_plots_draw_into_a_given_axes():
+    fig = Figure()
+    ax = fig.add_subplot()
+    r = tj.predict(tj.Params(), tj.Sweep.linspace("distance", 0.5, 2.0, 5))
+    assert plots.amplitude(r, ax=ax) is fig
+    np.testing.assert_array_equal(ax.lines[0].get_ydata(), np.asarray(r.amplitude_mean_lsb))
+
+
+def test_photon_transfer_curve_draws_every_source_of_the_budget(runs):
+    """One line per noise source of the budget (and signal, totals, quantisation), with its data."""
+    r = runs["illuminance"]
+    fig = plots.photon_transfer_curve(r)
+    lines = {line.get_label(): line.get_ydata() for line in fig.axes[0].lines}
+    for name, value in r.noise.source_items():
+        label = name.replace("_", " ") + " noise"
+        if np.all(np.asarray(value) > 0):
+            np.testing.assert_array_equal(np.sort(lines[label]), np.sort(np.asarray(value)))
+    for label in ("signal", "total noise", "read noise", "quantisation"):
+        assert label in lines

@@ -1,0 +1,250 @@
+"""Noisy frames of the chain, and the chunked loop that reduces them to statistics in bounded memory
+(docs/model.md, "Monte Carlo").
+
+Random-number economy. A frame needs, per phase image, the noisy charge of each tap before the limit
+and the noise added after it. Sources at one node are independent Gaussians, so one normal per tap
+carries all sources before the limit, and one per phase image the sources after it (only the
+differential A - B is read out, so per-tap draws there would be wasted). Where the limit cannot act
+(:meth:`~tofjax._saturation.AbstractLimit.linear`: no tap within reach of saturation or an SBI floor,
+and the SBI flag the same for every frame), the limit passes the differential unchanged, and the sum
+of the three draws is one normal of the summed variance: one draw per phase image. "Within reach" is
+:data:`~tofjax._random.MAX_ABS_NORMAL` standard deviations, the largest deviate the generator returns,
+so this path is not an approximation: no frame of the three-draw path could have hit a limit there.
+The path is chosen per operating point; a block of points that are all linear draws one normal per
+phase image (a real branch, not a select), any other block both sets and keeps each point's own.
+
+Memory. Frames are drawn in chunks of at most :data:`CHUNK_ELEMENTS` phase images (blocks of operating
+points x chunks of frames); each chunk is reduced to per-point sums (valid frames, phase deviations
+and their squares, amplitudes and squares, flags, codes) before the next is drawn. Only the first
+``keep`` frames of each point are returned whole, when asked for. Deviations are taken from the
+noise-free frame's phase and amplitude (a fixed centre close to the mean), which keeps the sums of
+squares well conditioned and makes a noise-free run's standard deviation exactly 0.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jax import lax
+from jaxtyping import Array
+
+from . import _depth
+from ._chain import Chain
+from ._mixer import TapCharges
+from ._noise import AFTER_LIMIT, BEFORE_LIMIT
+from ._random import MAX_ABS_NORMAL, normals
+
+#: Phase images drawn per chunk (about 4 MB per float64 array of the chunk).
+CHUNK_ELEMENTS = 1 << 19
+#: Operating points per block at most (the fast/three-draw path is chosen per block).
+BLOCK_POINTS = 256
+_TWO_PI = 2.0 * math.pi
+
+
+class PointConstants(eqx.Module):
+    """What the frames of one operating point need, phase axis first: ``(phases, points)``."""
+
+    n_a: Array
+    n_b: Array
+    sd_a: Array  # before the limit, per tap
+    sd_b: Array
+    sd_after: Array  # after the limit, of the differential
+    sd_fast: Array  # everything, of the differential (linear points)
+    linear: Array  # (points,) the one-draw path is exact
+    sbi_fixed: Array  # (points,) the SBI flag of every frame of a linear point
+    ref_phase: Array  # (points,) phase of the noise-free frame
+    ref_amp: Array  # (points,) amplitude of the noise-free frame
+    index: Array  # (points,) uint32 counter word of the point
+
+
+def point_constants(chain: Chain, charges: TapCharges, index: Array) -> PointConstants:
+    """Per-point constants of the frames from the expected charges (flattened points)."""
+    noise, limit, readout = chain.noise, chain.limit, chain.readout
+    n_a, n_b = charges.a, charges.b
+    var_a, var_b = noise.variance_e2(charges, BEFORE_LIMIT)
+    post_a, post_b = noise.variance_e2(charges, AFTER_LIMIT)
+    sd_a, sd_b = jnp.sqrt(var_a), jnp.sqrt(var_b)
+    linear, always = limit.linear(n_a, n_b, MAX_ABS_NORMAL * sd_a, MAX_ABS_NORMAL * sd_b)
+    held_a, held_b = limit(n_a, n_b)
+    values = readout.quantize(readout.position(held_a - held_b)) - readout.mid_code
+    re, im = _depth.phasor(jnp.moveaxis(values, -1, 0))
+    t = lambda x: jnp.moveaxis(x, -1, 0)  # noqa: E731 - (points, phases) -> (phases, points)
+    return PointConstants(
+        n_a=t(n_a), n_b=t(n_b), sd_a=t(sd_a), sd_b=t(sd_b), sd_after=t(jnp.sqrt(post_a + post_b)),
+        sd_fast=t(jnp.sqrt(var_a + var_b + post_a + post_b)), linear=jnp.all(linear, axis=-1),
+        sbi_fixed=jnp.any(always, axis=-1), ref_phase=_depth.atan2(im, re),
+        ref_amp=_depth.amplitude_scale(chain.n_phases) * jnp.sqrt(re * re + im * im), index=index,
+    )
+
+
+class FrameBatch(eqx.Module):
+    """Frames of a block of points: codes ``(phases, points, frames)``; the rest ``(points, frames)``."""
+
+    codes: Array
+    phase: Array  # arg Z in (-pi, pi]
+    amplitude: Array
+    pixel_saturated: Array
+    adc_saturated: Array
+    sbi_engaged: Array
+
+
+def draw_frames(chain: Chain, c: PointConstants, key: tuple[Array, Array], first_frame: Array, n_frames: int,
+                stream=0, linear: Array | None = None) -> FrameBatch:
+    """Frames ``first_frame .. first_frame + n_frames - 1`` of every point of ``c`` (module docstring).
+    ``stream`` separates the random streams of several chains (one per modulation frequency);
+    ``linear`` (points,) overrides ``c.linear``, the points that take the one-draw path (pass it
+    from outside a ``vmap`` so that the choice of path stays a branch)."""
+    limit, readout = chain.limit, chain.readout
+    n_phases = c.n_a.shape[0]
+    frame = (first_frame + jnp.arange(n_frames, dtype=jnp.uint32))[None, :]
+    point = c.index[:, None]
+    col = lambda x: x[..., None]  # noqa: E731 - (phases, points) -> (phases, points, 1)
+
+    def one_draw(_):
+        z = normals(key, frame, point, 4 * stream, n_phases).astype(float)
+        diff = col(c.n_a - c.n_b) + col(c.sd_fast) * z
+        shape = diff.shape[1:]
+        return diff, jnp.zeros(shape, dtype=bool), jnp.broadcast_to(c.sbi_fixed[:, None], shape)
+
+    def three_draws(_):
+        z = normals(key, frame, point, 4 * stream + 1, 3 * n_phases).astype(float)
+        a = col(c.n_a) + col(c.sd_a) * z[:n_phases]
+        b = col(c.n_b) + col(c.sd_b) * z[n_phases:2 * n_phases]
+        saturated, engaged = limit.flags(a, b)
+        held_a, held_b = limit(a, b)
+        diff = held_a - held_b + col(c.sd_after) * z[2 * n_phases:]
+        return diff, jnp.any(saturated, axis=0), jnp.any(engaged, axis=0)
+
+    linear = c.linear if linear is None else linear
+
+    def per_point(_):  # each point its own path, so that a point's frames do not depend on its block
+        fast, full = one_draw(None), three_draws(None)
+        return tuple(jnp.where(linear[:, None] if x.ndim == 2 else linear[None, :, None], a, x)
+                     for a, x in zip(fast, full, strict=True))
+
+    if chain.noise.enabled:
+        diff, pixel_sat, sbi_on = lax.cond(jnp.all(linear), one_draw, per_point, None)
+    else:
+        held_a, held_b = limit(col(c.n_a), col(c.n_b))
+        diff = jnp.broadcast_to(held_a - held_b, (n_phases, c.index.shape[0], n_frames))
+        saturated, engaged = limit.flags(col(c.n_a), col(c.n_b))
+        shape = diff.shape[1:]
+        pixel_sat = jnp.broadcast_to(jnp.any(saturated, axis=0), shape)
+        sbi_on = jnp.broadcast_to(jnp.any(engaged, axis=0), shape)
+    u = readout.position(diff)
+    codes = readout.quantize(u)
+    re, im = _depth.phasor(codes - readout.mid_code)
+    amplitude = _depth.amplitude_scale(n_phases) * jnp.sqrt(re * re + im * im)
+    return FrameBatch(codes, _depth.atan2(im, re), amplitude, pixel_sat, jnp.any(readout.saturated(u), axis=0), sbi_on)
+
+
+class Sums(eqx.Module):
+    """Per-point sums over frames (deviations from the noise-free frame's phase and amplitude)."""
+
+    valid: Array
+    dev: Array
+    dev2: Array
+    amp: Array
+    amp2: Array
+    pixel_saturated: Array
+    adc_saturated: Array
+    sbi_engaged: Array
+    codes: Array  # (phases, points), over all frames
+
+
+def wrap(x: Array) -> Array:
+    """Wrap to [-pi, pi) (cheap: one floor)."""
+    return x - _TWO_PI * jnp.floor(x / _TWO_PI + 0.5)
+
+
+def reduce_frames(c: PointConstants, f: FrameBatch, counted: Array) -> tuple[Sums, Array]:
+    """Sums of one chunk (``counted``: frames that belong to the run) and each frame's validity."""
+    valid = ~f.pixel_saturated & ~f.adc_saturated
+    use = valid & counted
+    dev = jnp.where(use, wrap(f.phase - c.ref_phase[:, None]), 0.0)
+    amp = jnp.where(use, f.amplitude - c.ref_amp[:, None], 0.0)
+    count = lambda x: jnp.sum(x & counted, axis=-1).astype(float)  # noqa: E731
+    sums = Sums(valid=count(valid), dev=jnp.sum(dev, -1), dev2=jnp.sum(dev * dev, -1), amp=jnp.sum(amp, -1),
+                amp2=jnp.sum(amp * amp, -1), pixel_saturated=count(f.pixel_saturated),
+                adc_saturated=count(f.adc_saturated), sbi_engaged=count(f.sbi_engaged),
+                codes=jnp.sum(jnp.where(counted, f.codes, 0.0), axis=-1))
+    return sums, valid
+
+
+def chunking(points: int, phases: int, frames: int, elements: int = CHUNK_ELEMENTS,
+             block_points: int = BLOCK_POINTS) -> tuple[int, int]:
+    """(points per block, frames per chunk) for about ``elements`` phase images a chunk."""
+    block = min(points, block_points, max(1, elements // phases))
+    chunk = max(1, min(frames, elements // (block * phases)))
+    if chunk == frames and block < points:  # all frames fit: take more points per block instead
+        block = min(points, max(block, elements // (phases * max(frames, 1))))
+    return block, chunk
+
+
+def run_blocks(step: Callable, consts, n_points: int, frames: int, keep: int, phases: int,
+               elements: int = CHUNK_ELEMENTS, block_points: int = BLOCK_POINTS):
+    """Run ``step(consts_block, first_frame, n_frames, counted, record) -> (sums, record)`` over blocks
+    of points and chunks of frames; return the summed ``sums`` (points axis last) and the first
+    ``keep`` frames' records (points axis first), padding removed. ``elements`` and ``block_points``
+    set the chunks' size (:func:`chunking`); the results do not depend on them beyond rounding.
+
+    ``consts`` is a pytree whose leaves have the points axis last (``(..., points)``); ``record``
+    tells ``step`` whether to return its frames (the first ``keep``) or ``None`` (later chunks).
+    """
+    block, chunk = chunking(n_points, phases, max(frames - keep, 1), elements, block_points)
+    n_blocks = -(-n_points // block)
+    padded = n_blocks * block
+
+    def split(x):  # (..., points) -> (blocks, ..., block), padding with the last point
+        pad = jnp.concatenate([x, jnp.repeat(x[..., -1:], padded - n_points, axis=-1)], axis=-1)
+        return jnp.moveaxis(pad.reshape(x.shape[:-1] + (n_blocks, block)), -2, 0)
+
+    rest = frames - keep
+    n_chunks = -(-rest // chunk) if rest > 0 else 0
+
+    def one_block(cb):
+        sums = record = None
+        if keep > 0:
+            sums, record = step(cb, jnp.uint32(0), keep, jnp.ones((keep,), dtype=bool), True)
+        if n_chunks > 0:
+            def body(total, i):
+                first = keep + i * chunk
+                counted = (first + jnp.arange(chunk)) < frames
+                part, _ = step(cb, first.astype(jnp.uint32), chunk, counted, False)
+                return jax.tree_util.tree_map(jnp.add, total, part), None
+
+            shapes, _ = jax.eval_shape(lambda: step(cb, jnp.uint32(0), chunk, jnp.ones((chunk,), dtype=bool), False))
+            zeros = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
+            more, _ = lax.scan(jax.checkpoint(body), zeros, jnp.arange(n_chunks))
+            sums = more if sums is None else jax.tree_util.tree_map(jnp.add, sums, more)
+        return sums, record
+
+    sums, record = lax.map(one_block, jax.tree_util.tree_map(split, consts))
+
+    def join(x):  # (blocks, ..., block) -> (..., points)
+        return jnp.moveaxis(x, 0, -2).reshape(x.shape[1:-1] + (padded,))[..., :n_points]
+
+    def join_record(x):  # (blocks, block, ...) -> (points, ...)
+        return x.reshape((padded,) + x.shape[2:])[:n_points]
+
+    return (jax.tree_util.tree_map(join, sums),
+            None if record is None else jax.tree_util.tree_map(join_record, record))
+
+
+def frame_statistics(c: PointConstants, sums: Sums, frames: int):
+    """(mean phase in [0, 2 pi), phase std, amplitude mean, amplitude std) over the valid frames;
+    NaN below two valid frames."""
+    n = sums.valid
+    enough = n >= 2
+    n_safe = jnp.where(enough, n, 2.0)
+    mean_dev = sums.dev / n_safe
+    var_dev = jnp.maximum(sums.dev2 - n_safe * mean_dev**2, 0.0) / (n_safe - 1.0)
+    mean_amp = sums.amp / n_safe
+    var_amp = jnp.maximum(sums.amp2 - n_safe * mean_amp**2, 0.0) / (n_safe - 1.0)
+    nan = lambda x: jnp.where(enough, x, jnp.nan)  # noqa: E731
+    return (nan(jnp.mod(c.ref_phase + mean_dev, _TWO_PI)), nan(_depth.safe_sqrt(var_dev)),
+            nan(c.ref_amp + mean_amp), nan(_depth.safe_sqrt(var_amp)))

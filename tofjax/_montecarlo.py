@@ -1,0 +1,159 @@
+"""The Monte Carlo path: :func:`simulate` draws noisy frames through the chain and reduces them to
+statistics chunk by chunk (:mod:`tofjax._frames`; docs/model.md, "Monte Carlo")."""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+from jaxtyping import Array, PRNGKeyArray
+
+from ._analytic import full_well_fraction, unwrap_if_sweep
+from ._chain import Chain, build_chain
+from ._depth import unwrap_along_sweep
+from ._frames import BLOCK_POINTS, CHUNK_ELEMENTS, PointConstants, Sums, draw_frames, frame_statistics, point_constants, reduce_frames, run_blocks
+from ._mixer import TapCharges
+from ._params import Params
+from ._random import key_words
+from ._result import Result, snr_db
+from ._smooth import Smooth
+from ._sweep import Sweep, check_inputs
+
+
+def pixel_dark_slopes(params: Params, key: PRNGKeyArray) -> Array:
+    """Dark slopes (V/s) of taps A and B of one pixel drawn from the population: a gamma
+    distribution (positive) with the configured mean and pixel-to-pixel sigma."""
+    mean, sigma = params.pixel.dark_slope_mean_v_per_s, params.pixel.dark_slope_sigma_v_per_s
+    ok = (mean > 0) & (sigma > 0)
+    shape = jnp.where(ok, mean**2 / jnp.where(ok, sigma, 1.0) ** 2, 1.0)
+    draw = jr.gamma(key, shape, (2,)) * jnp.where(ok, sigma**2 / jnp.where(ok, mean, 1.0), 0.0)
+    return jnp.where(ok, draw, mean)
+
+
+def check_counts(iterations, keep_frames) -> None:
+    """Frames per point (>= 1) and frames to keep (0 .. iterations), as Python integers."""
+    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
+        raise ValueError(f"iterations = {iterations!r} is out of range: allowed integer >= 1")
+    if isinstance(keep_frames, bool) or not isinstance(keep_frames, int) or not 0 <= keep_frames <= iterations:
+        raise ValueError(f"keep_frames = {keep_frames!r} is out of range: allowed integer 0 <= value <= "
+                         f"iterations = {iterations}")
+
+
+class Prepared(eqx.Module):
+    """A chain's expected charges at the operating points and its frames' per-point constants."""
+
+    charges: TapCharges  # batch shape (*b)
+    consts: PointConstants  # points flattened, last axis
+
+
+def prepare(chain: Chain, sweep: Sweep, dark_slopes_v_per_s=None) -> Prepared:
+    d, ev, t = sweep.operating_points(chain.params.scene)
+    charges = chain.expose(d, ev, t, dark_slopes_v_per_s)
+    flat = jax.tree_util.tree_map(lambda x: x.reshape((-1,) + x.shape[d.ndim:]), charges)
+    n_points = flat.signal_e.shape[0]
+    return Prepared(charges, point_constants(chain, flat, jnp.arange(n_points, dtype=jnp.uint32)))
+
+
+def frames_step(chain: Chain, words, stream=0):
+    """The chunk step of :func:`tofjax._frames.run_blocks` for one chain: sums, and with ``record``
+    the frames as (codes ``(points, frames, phases)``, phase in [0, 2 pi), amplitude, valid)."""
+
+    def step(c, first, n, counted, record):
+        frames = draw_frames(chain, c, words, first, n, stream)
+        sums, valid = reduce_frames(c, frames, counted[None, :])
+        if not record:
+            return sums, None
+        phase = jnp.mod(frames.phase, 2.0 * jnp.pi)
+        return sums, (jnp.moveaxis(frames.codes, 0, -1), phase, frames.amplitude, valid)
+
+    return step
+
+
+def assemble(chain: Chain, sweep: Sweep, prepared: Prepared, sums: Sums, kept, iterations: int) -> Result:
+    """The :class:`tofjax.Result` of a Monte Carlo run from its per-point sums and kept frames."""
+    d, ev, t = sweep.operating_points(chain.params.scene)
+    shape = d.shape
+    charges, consts = prepared.charges, prepared.consts
+    mean_phase, std_phase, amp_mean, amp_std = frame_statistics(consts, sums, iterations)
+    points = lambda x: x.reshape(shape + x.shape[1:])  # noqa: E731 - (points, ...) -> (*b, ...)
+    fraction = lambda x: points(x / float(iterations))  # noqa: E731
+    mean_phase, std_phase = points(mean_phase), points(std_phase)
+    has_mean = ~jnp.isnan(mean_phase)
+    to_m = chain.unambiguity_range_m / (2.0 * jnp.pi)
+    n_a, n_b = charges.a, charges.b
+    held_a, held_b = chain.limit(n_a, n_b)
+    tap_a_v, tap_b_v = chain.tap_volts(held_a, held_b)
+    readout = chain.readout
+    breakdown = chain.noise.breakdown(charges, jnp.sqrt(readout.quantization_variance_lsb2) * readout.lsb_e)
+    if kept is not None:
+        codes, phase, amplitude, valid = (points(x) for x in kept)
+        unwrapped = unwrap_along_sweep(phase, valid) if len(shape) == 1 else jnp.where(valid, phase, jnp.nan)
+        frames = dict(codes=codes, phase_rad=phase, depth_m=to_m * phase, depth_unwrapped_m=to_m * unwrapped,
+                      amplitude_lsb=amplitude, valid=valid)
+    else:
+        frames = dict(codes=None, phase_rad=None, depth_m=None, depth_unwrapped_m=None, amplitude_lsb=None, valid=None)
+    return Result(
+        method="mc", sweep_variable=sweep.variable, n_frames=iterations,
+        sweep_values=sweep.values, distance_m=d, illuminance_lx=ev, integration_time_s=t,
+        unambiguity_range_m=chain.unambiguity_range_m,
+        tap_a_e=held_a, tap_b_e=held_b, tap_a_v=tap_a_v, tap_b_v=tap_b_v, differential_v=tap_b_v - tap_a_v,
+        code_mean=points(jnp.moveaxis(sums.codes, 0, -1) / float(iterations)), **frames,
+        depth_mean_m=to_m * mean_phase,
+        depth_unwrapped_mean_m=to_m * unwrap_if_sweep(jnp.where(has_mean, mean_phase, 0.0), has_mean),
+        depth_std_m=to_m * std_phase, amplitude_mean_lsb=points(amp_mean), amplitude_std_lsb=points(amp_std),
+        intensity_e=jnp.mean(0.5 * (held_a + held_b), axis=-1),
+        snr_db=snr_db(breakdown), noise=breakdown,
+        valid_fraction=fraction(sums.valid), pixel_saturated_fraction=fraction(sums.pixel_saturated),
+        adc_saturated_fraction=fraction(sums.adc_saturated), sbi_active_fraction=fraction(sums.sbi_engaged),
+        full_well_fraction=full_well_fraction(n_a, n_b, chain.limit.full_well_e),
+    )
+
+
+def monte_carlo(chain: Chain, sweep: Sweep, key: PRNGKeyArray, iterations: int, keep_frames: int,
+                dark_slopes_v_per_s=None, chunking: tuple[int, int] = (CHUNK_ELEMENTS, BLOCK_POINTS)) -> Result:
+    """:func:`simulate` on a built chain (``chunking``: phase images per chunk, points per block)."""
+    prepared = prepare(chain, sweep, dark_slopes_v_per_s)
+    sums, kept = run_blocks(frames_step(chain, key_words(key)), prepared.consts, sweep.samples, iterations,
+                            keep_frames, chain.n_phases, *chunking)
+    return assemble(chain, sweep, prepared, sums, kept, iterations)
+
+
+@eqx.filter_jit
+def simulate(
+    params: Params,
+    sweep: Sweep,
+    key: PRNGKeyArray,
+    iterations: int = 2000,
+    *,
+    smooth: Smooth | None = None,
+    fixed_pattern: bool = False,
+    keep_frames: int = 0,
+) -> Result:
+    """Monte Carlo simulation: ``iterations`` noisy frames at every operating point.
+
+    Per frame, phase image and tap: Gaussian noise of the sources before the limit (shot noise of
+    every collected electron, reset kTC), then SBI and saturation of the noisy charge, then the
+    sources after it (hold kTC), the ADC, and the phase/amplitude/depth estimators. A frame is
+    valid when no tap of any phase image saturated and no code hit an end of the ADC range;
+    statistics use valid frames only (circular statistics for the phase). Frames are drawn and
+    reduced in chunks, so memory stays bounded for any number of frames (docs/model.md, "Monte
+    Carlo": the random-number economy and the chunking).
+
+    **Arguments:**
+    - ``params``, ``sweep``: as :func:`tofjax.predict` (any shape of operating points).
+    - ``key``: a ``jax.random`` key; the same key gives the same frames.
+    - ``iterations``: frames per operating point (static; each value compiles once).
+    - ``smooth``: ``None`` for the hard mode, or :class:`tofjax.Smooth` temperatures.
+    - ``fixed_pattern``: if true, the taps' dark slopes are drawn once (per key) from the
+      pixel population (mean, sigma of ``pixel.dark_slope_*``) instead of taking the mean pixel.
+    - ``keep_frames``: how many frames of each point to return whole (``codes``, ``phase_rad``,
+      ``depth_m``, ...; static, 0 .. ``iterations``); the statistics always use every frame.
+
+    **Returns:** a :class:`tofjax.Result` with ``method = "mc"``.
+    """
+    check_inputs(params, sweep)
+    check_counts(iterations, keep_frames)
+    pattern_key, key = jr.split(key)
+    slopes = pixel_dark_slopes(params, pattern_key) if fixed_pattern else None
+    return monte_carlo(build_chain(params, smooth, sweep.samples), sweep, key, iterations, keep_frames, slopes)
