@@ -8,10 +8,10 @@ correlations and diagnostics, PNG figures and a short Markdown report.
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 import json
 from pathlib import Path
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -22,8 +22,10 @@ from tofjax.sweepfile import utc_now
 from ._data import OBSERVABLES, SweepRows, load_rows
 from ._least_squares import LeastSquaresResult, fit_least_squares
 from ._parameters import make_parameters
-from ._posterior import PosteriorResult, sample_posterior
 from ._problem import Problem, batched_curves, build_problem
+
+if TYPE_CHECKING:  # emcee (and scipy through it) are imported only when a posterior is sampled
+    from ._posterior import PosteriorResult
 
 _AXIS = {"distance": ("distance [m]", 1.0), "illuminance": ("background illuminance [lx]", 1.0),
          "integration_time": ("integration time [ms]", 1e3)}
@@ -112,6 +114,8 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
     ls = fit_least_squares(problem, rows, max_steps=max_steps)
     post = None
     if mcmc:
+        from ._posterior import sample_posterior
+
         post = sample_posterior(problem, ls, walkers=walkers, steps=steps, seed=seed, backend_path=backend,
                                 resume=resume, progress=progress)
     return Calibration(config, rows, problem, ls, post)

@@ -68,7 +68,7 @@ class FileGroup(eqx.Module):
 def _same_camera(a: tj.Params, b: tj.Params) -> bool:
     leaves_a, tree_a = jax.tree_util.tree_flatten(a)
     leaves_b, tree_b = jax.tree_util.tree_flatten(b)
-    return tree_a == tree_b and all(np.array_equal(np.asarray(x), np.asarray(y)) for x, y in zip(leaves_a, leaves_b))
+    return tree_a == tree_b and all(np.array_equal(np.asarray(x), np.asarray(y)) for x, y in zip(leaves_a, leaves_b, strict=True))
 
 
 def _groups(rows: list[SweepRows]) -> tuple[FileGroup, ...]:

@@ -58,13 +58,15 @@ def run(args) -> int:
 
     from ._calibrate import calibrate
     from ._least_squares import ConvergenceError
-    from ._posterior import ShortChainWarning
 
     config = tj.load_config(args.config) if args.config else tj.Config()
     names = [n.strip() for n in args.fit.split(",") if n.strip()]
     try:
         with warnings.catch_warnings():  # a short chain is reported below as a "warning:" line
-            warnings.simplefilter("ignore", ShortChainWarning)
+            if args.mcmc:  # emcee is imported only for a posterior
+                from ._posterior import ShortChainWarning
+
+                warnings.simplefilter("ignore", ShortChainWarning)
             cal = calibrate(args.sweeps, config, fit=names, bounds=dict(args.bounds), priors=dict(args.prior),
                             relative_error=args.relative_error, min_snr=args.min_snr, mcmc=args.mcmc,
                             walkers=args.walkers, steps=args.steps, seed=args.seed, backend=args.backend,

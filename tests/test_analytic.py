@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 import tofjax as tj
-from helpers import fd_check
 
 
 def _ideal(n, ill="pulse", ref="pulse", ill_duty=0.5, ref_duty=0.5):

@@ -1,6 +1,5 @@
 """The simulation report (tofjax/report.py): files, headline figures."""
 
-import numpy as np
 import pytest
 
 import tofjax as tj

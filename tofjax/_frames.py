@@ -210,7 +210,11 @@ def run_blocks(step: Callable, consts, n_points: int, frames: int, keep: int, ph
         sums = record = None
         if keep > 0:
             sums, record = step(cb, jnp.uint32(0), keep, jnp.ones((keep,), dtype=bool), True)
-        if n_chunks > 0:
+        if n_chunks == 1:  # no loop: a smaller program
+            counted = (keep + jnp.arange(chunk)) < frames
+            more, _ = step(cb, jnp.uint32(keep), chunk, counted, False)
+            sums = more if sums is None else jax.tree_util.tree_map(jnp.add, sums, more)
+        elif n_chunks > 1:
             def body(total, i):
                 first = keep + i * chunk
                 counted = (first + jnp.arange(chunk)) < frames
@@ -223,7 +227,11 @@ def run_blocks(step: Callable, consts, n_points: int, frames: int, keep: int, ph
             sums = more if sums is None else jax.tree_util.tree_map(jnp.add, sums, more)
         return sums, record
 
-    sums, record = lax.map(one_block, jax.tree_util.tree_map(split, consts))
+    blocks = jax.tree_util.tree_map(split, consts)
+    if n_blocks == 1:
+        sums, record = jax.tree_util.tree_map(lambda x: x[None], one_block(jax.tree_util.tree_map(lambda x: x[0], blocks)))
+    else:
+        sums, record = lax.map(one_block, blocks)
 
     def join(x):  # (blocks, ..., block) -> (..., points)
         return jnp.moveaxis(x, 0, -2).reshape(x.shape[1:-1] + (padded,))[..., :n_points]

@@ -31,13 +31,35 @@ def pixel_dark_slopes(params: Params, key: PRNGKeyArray) -> Array:
     return jnp.where(ok, draw, mean)
 
 
-def check_counts(iterations, keep_frames) -> None:
-    """Frames per point (>= 1) and frames to keep (0 .. iterations), as Python integers."""
+#: The most memory the kept frames of one call may take (:func:`simulate`'s ``keep_frames``); the
+#: statistics themselves run in bounded memory for any number of frames.
+MAX_KEPT_BYTES = 1 << 30
+
+
+def kept_bytes_per_frame(n_phases: int) -> int:
+    """Bytes one kept frame of one operating point takes: codes (phases), phase, depth, unwrapped depth
+    and amplitude (float64 each) and the valid flag."""
+    return 8 * n_phases + 4 * 8 + 1
+
+
+def max_keep_frames(samples: int, n_phases: int) -> int:
+    """The most frames per point that fit :data:`MAX_KEPT_BYTES` for ``samples`` operating points."""
+    return MAX_KEPT_BYTES // (max(samples, 1) * kept_bytes_per_frame(n_phases))
+
+
+def check_counts(iterations, keep_frames, samples: int = 1, n_phases: int = 4) -> None:
+    """Frames per point (>= 1) and frames to keep (0 .. iterations, and within :data:`MAX_KEPT_BYTES`
+    for ``samples`` points), as Python integers; refused before any work."""
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise ValueError(f"iterations = {iterations!r} is out of range: allowed integer >= 1")
     if isinstance(keep_frames, bool) or not isinstance(keep_frames, int) or not 0 <= keep_frames <= iterations:
         raise ValueError(f"keep_frames = {keep_frames!r} is out of range: allowed integer 0 <= value <= "
                          f"iterations = {iterations}")
+    most = max_keep_frames(samples, n_phases)
+    if keep_frames > most:
+        size = keep_frames * samples * kept_bytes_per_frame(n_phases) / 2**30
+        raise ValueError(f"keep_frames = {keep_frames} is out of range for {samples} operating points ({size:.1f} GiB of "
+                         f"frames): allowed 0 <= value <= {most} (1 GiB); the statistics use every frame regardless")
 
 
 class Prepared(eqx.Module):
@@ -153,7 +175,7 @@ def simulate(
     **Returns:** a :class:`tofjax.Result` with ``method = "mc"``.
     """
     check_inputs(params, sweep)
-    check_counts(iterations, keep_frames)
+    check_counts(iterations, keep_frames, sweep.samples, params.pixel.n_phases)
     pattern_key, key = jr.split(key)
     slopes = pixel_dark_slopes(params, pattern_key) if fixed_pattern else None
     return monte_carlo(build_chain(params, smooth, sweep.samples), sweep, key, iterations, keep_frames, slopes)

@@ -108,10 +108,11 @@ def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, ite
     ``keep_frames``: unwrapped frames to return per point (the plots use them).
     """
     check_inputs(params, sweep)
-    check_counts(iterations, keep_frames)
     freqs = np.asarray(frequencies_hz, dtype=float).reshape(-1)
     if freqs.size < 2 or not np.all(freqs > 0) or len(set(freqs.tolist())) != freqs.size:
         raise ValueError(f"frequencies_hz = {freqs.tolist()} must be two or more distinct frequencies > 0 Hz")
+    # Frames are kept per frequency and once more unwrapped.
+    check_counts(iterations, keep_frames, sweep.samples * (freqs.size + 1), params.pixel.n_phases)
     c = float(params.constants.speed_of_light_m_per_s)
     ranges = tuple(float(x) for x in c / (2.0 * freqs))
     return _simulate(params, sweep, key, iterations, jnp.asarray(freqs), keep_frames, float(extended_range_m(freqs, c)),

@@ -103,18 +103,22 @@ def moments(v: Float[Array, "*b"]) -> tuple[Float[Array, "*b"], Float[Array, "*b
     large = v > math.exp(_LOG_V_MAX)
     t = (jnp.log(jnp.where(small | large, 1.0, v)) - _LOG_V_MIN) / step
     cell = jnp.clip(jnp.floor(t), 0, _TABLE_POINTS - 2)
-    u = (t - cell)[..., None]
-    lo, hi = table[cell.astype(jnp.int32)], table[cell.astype(jnp.int32) + 1]
+    u = t - cell
+    i = cell.astype(jnp.int32)
     u2, u3 = u * u, u * u * u
-    y = ((2 * u3 - 3 * u2 + 1) * lo[..., (1, 3)] + (u3 - 2 * u2 + u) * step * lo[..., (2, 4)]
-         + (3 * u2 - 2 * u3) * hi[..., (1, 3)] + (u3 - u2) * step * hi[..., (2, 4)])
-    inside = jnp.exp(y)
+    h00, h10, h01, h11 = 2 * u3 - 3 * u2 + 1, (u3 - 2 * u2 + u) * step, 3 * u2 - 2 * u3, (u3 - u2) * step
+
+    def hermite(value: int, slope: int) -> Array:  # one gather per table column: no (..., 5) rows
+        y, dy = table[:, value], table[:, slope]
+        return jnp.exp(h00 * y[i] + h10 * dy[i] + h01 * y[i + 1] + h11 * dy[i + 1])
+
+    inside = (hermite(1, 2), hermite(3, 4))
     vs = jnp.where(small, v, 0.0)
     vl = jnp.where(large, v, 1.0)
     g = jnp.where(small, vs * (1.0 + vs + 2.668 * vs**2),
-                  jnp.where(large, _UNIFORM - jnp.sqrt(2.0 * math.pi / vl) + 0.25 / vl, inside[..., 0]))
+                  jnp.where(large, _UNIFORM - jnp.sqrt(2.0 * math.pi / vl) + 0.25 / vl, inside[0]))
     m = jnp.where(small, 1.0 + 0.5 * vs + 0.125 * vs**2,
-                  jnp.where(large, jnp.sqrt(0.5 * math.pi * vl) * (1.0 + 0.25 / vl), inside[..., 1]))
+                  jnp.where(large, jnp.sqrt(0.5 * math.pi * vl) * (1.0 + 0.25 / vl), inside[1]))
     return g, m
 
 

@@ -14,7 +14,7 @@ import jax
 
 from ._config import Config
 from ._analytic import predict
-from ._montecarlo import simulate
+from ._montecarlo import max_keep_frames, simulate
 from ._multifrequency import MultiFrequencyResult, simulate_multifrequency
 from ._result import Result
 from ._sweep import Sweep
@@ -42,7 +42,8 @@ def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int 
               fixed_pattern: bool = False, keep_frames: int = 0) -> Run:
     """Run ``sweep`` with ``config``: ``method`` ``"mc"`` or ``"analytic"``; ``iterations`` frames per
     sample (default ``pixel.iterations``); ``seed`` of the Monte Carlo; ``keep_frames``: frames per
-    sample to keep for plots (at most ``iterations``).
+    sample to keep for plots (at most ``iterations``, and at most what fits 1 GiB for this many samples:
+    :func:`tofjax._montecarlo.max_keep_frames`; the statistics use every frame regardless).
 
     Raises ``ValueError`` for an unknown method, and for several modulation frequencies with the
     analytic method (range extension is a per-frame decision, so it needs frames).
@@ -56,7 +57,8 @@ def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int 
                          "need the Monte Carlo method (mc; on the command line: --method mc)")
     t0 = time.perf_counter()
     multi = None
-    keep = min(keep_frames, iterations)
+    copies = len(freqs) + 1 if len(freqs) > 1 else 1
+    keep = min(keep_frames, iterations, max_keep_frames(sweep.samples * copies, params.pixel.n_phases))
     if len(freqs) > 1:
         multi = jax.device_get(simulate_multifrequency(params, sweep, jax.random.key(seed), iterations, freqs,
                                                        keep_frames=keep))
