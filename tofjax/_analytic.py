@@ -168,7 +168,7 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None) -> Re
 
 # predict runs as three programs, the exposure, the moments and the result: XLA on CPU fuses a
 # producer into each of its consumers, and would evaluate the exposure (and then the moments)
-# once per output of the next stage: 4x slower at 1e5 points. Under an outer jit (calibration, user
+# once per output of the next stage: 2x slower at 1e5 points. Under an outer jit (calibration, user
 # code) the three are traced into one program as usual.
 @eqx.filter_jit
 def _predict_exposure(params: Params, sweep: Sweep, smooth: Smooth | None) -> tuple[Chain, TapCharges]:
