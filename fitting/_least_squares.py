@@ -139,17 +139,17 @@ def _correlation(cov: np.ndarray) -> np.ndarray:
     return corr
 
 
-def _summaries(evaluated, paths, rows) -> list[dict]:
+def _summaries(evaluated, rows) -> list[dict]:
     from ._data import OBSERVABLES
 
     out = []
-    for path, per_file, file_rows in zip(paths, evaluated, rows, strict=True):
+    for per_file, file_rows in zip(evaluated, rows, strict=True):
         for name, (m, s) in zip(OBSERVABLES, per_file, strict=True):
             values, mask = file_rows.data[name]
             r = ((np.asarray(m) - np.where(mask, values, 0.0)) / np.asarray(s))[mask]
             if r.size == 0:
                 continue
-            out.append({"file": path, "observable": name, "rows": int(r.size), "rms": float(np.sqrt(np.mean(r**2))),
+            out.append({"file": file_rows.path, "observable": name, "rows": int(r.size), "rms": float(np.sqrt(np.mean(r**2))),
                         "mean": float(np.mean(r)), "max_abs": float(np.max(np.abs(r)))})
     return out
 
@@ -198,7 +198,7 @@ def fit_least_squares(problem: Problem, rows, *, max_steps: int = 256, rtol: flo
         sigma=np.sqrt(np.diag(cov)), covariance=cov, correlation=corr, unconstrained=np.asarray(u),
         unconstrained_covariance=cov_u, chi2=float(np.sum(r**2)), dof=dof, converged=converged, steps=steps,
         solver_message=message, condition_number=condition, degeneracies=messages,
-        residual_summary=_summaries(lin.evaluated, [file.path for file in rows], rows), linearization=lin,
+        residual_summary=_summaries(lin.evaluated, rows), linearization=lin,
     )
 
 

@@ -122,9 +122,9 @@ def test_readout_stage_matches_the_adc_functions_and_their_derivatives(enabled):
         code, dcode, u, du = stage.linearize(charge)
 
         def expected_code(c, t=t):
-            return _adc.expected_code(adc, _adc.code_position(adc, c / readout.electrons_per_volt), t)
+            return _adc.expected_code(adc, _adc.code_position(adc, c, readout.electrons_per_volt), t)
 
         np.testing.assert_allclose(code, jax.vmap(expected_code)(charge), rtol=1e-13)
         np.testing.assert_allclose(dcode, jax.vmap(jax.grad(expected_code))(charge), rtol=1e-9, atol=1e-15)
-        np.testing.assert_allclose(u, _adc.code_position(adc, v), rtol=1e-13)
+        np.testing.assert_allclose(u, readout.position(charge), rtol=1e-13)  # the frames' position (vs v: above)
         np.testing.assert_allclose(du, slope / readout.electrons_per_volt, rtol=1e-12)

@@ -58,7 +58,7 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted([*globals(), *_EXPORTS, *_SUBMODULES])
+    return sorted([*__all__, *_SUBMODULES])
 
 
 __all__ = sorted([*_EXPORTS, "explorer", "__version__"])

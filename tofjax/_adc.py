@@ -47,24 +47,27 @@ def max_code(adc: ADC) -> float:
     return 2.0**adc.resolution_bits - 1.0
 
 
-def code_position(adc: ADC, v: Float[Array, "*b"]) -> Float[Array, "*b"]:
-    """Continuous code position u (LSB) of a differential voltage, with offset, gain and INL."""
+def code_position(adc: ADC, v: Float[Array, "*b"], per_volt: Float[Array, ""] | float = 1.0) -> Float[Array, "*b"]:
+    """Continuous code position u (LSB) of a differential voltage ``v``, with offset, gain and INL;
+    with ``per_volt`` (units of ``v`` per volt, e.g. C_int / e) of a differential charge. The per-call
+    scalars are folded so that each frame costs multiplications only."""
     mid = mid_code(adc)
-    x = v / adc.lsb_v
+    per_lsb = 1.0 / (per_volt * adc.lsb_v)
     if not adc.enabled:
-        return mid + x
-    x = x * (1.0 + adc.gain_error_percent_fsr / 100.0) + adc.offset_error_lsb
-    return mid + x + adc.integral_nonlinearity_lsb * (1.0 - (x / mid) ** 2)
+        return mid + v * per_lsb
+    x = v * (per_lsb * (1.0 + adc.gain_error_percent_fsr / 100.0)) + adc.offset_error_lsb
+    return mid + x + adc.integral_nonlinearity_lsb * (1.0 - (x * (1.0 / mid)) ** 2)
 
 
-def code_position_slope(adc: ADC, v: Float[Array, "*b"]) -> Float[Array, "*b"]:
-    """du/dv, LSB per volt (the derivative of :func:`code_position`)."""
+def code_position_slope(adc: ADC, v: Float[Array, "*b"], per_volt: Float[Array, ""] | float = 1.0) -> Float[Array, "*b"]:
+    """du/dv, LSB per unit of ``v`` (the derivative of :func:`code_position`)."""
+    per_lsb = 1.0 / (per_volt * adc.lsb_v)
     if not adc.enabled:
-        return jnp.broadcast_to(1.0 / adc.lsb_v, jnp.shape(v))
+        return jnp.broadcast_to(per_lsb, jnp.shape(v))
     mid = mid_code(adc)
-    gain = 1.0 + adc.gain_error_percent_fsr / 100.0
-    x = v / adc.lsb_v * gain + adc.offset_error_lsb
-    return gain / adc.lsb_v * (1.0 - 2.0 * adc.integral_nonlinearity_lsb * x / mid**2)
+    slope = per_lsb * (1.0 + adc.gain_error_percent_fsr / 100.0)
+    x = v * slope + adc.offset_error_lsb
+    return slope * (1.0 - 2.0 * adc.integral_nonlinearity_lsb * x / mid**2)
 
 
 def _sin_two_pi(x: Array) -> Array:
@@ -167,21 +170,13 @@ class Readout(eqx.Module):
         return mid_code(self.adc)
 
     def position(self, differential_e: Array) -> Array:
-        """Continuous code position u of a differential charge (:func:`code_position`, with the
-        per-call scalars folded so that each frame costs multiplications only)."""
-        adc = self.adc
-        mid = mid_code(adc)
-        per_lsb = 1.0 / (self.electrons_per_volt * adc.lsb_v)
-        if not adc.enabled:
-            return mid + differential_e * per_lsb
-        x = differential_e * (per_lsb * (1.0 + adc.gain_error_percent_fsr / 100.0)) + adc.offset_error_lsb
-        return mid + x + adc.integral_nonlinearity_lsb * (1.0 - (x * (1.0 / mid)) ** 2)
+        """Continuous code position u of a differential charge (:func:`code_position`)."""
+        return code_position(self.adc, differential_e, self.electrons_per_volt)
 
     def linearize(self, differential_e: Array) -> tuple[Array, Array, Array, Array]:
         """(expected code, d code / d charge, code position u, d u / d charge) at a differential charge."""
-        v = differential_e / self.electrons_per_volt
-        u = code_position(self.adc, v)
-        du = code_position_slope(self.adc, v) / self.electrons_per_volt
+        u = self.position(differential_e)
+        du = code_position_slope(self.adc, differential_e, self.electrons_per_volt)
         return expected_code(self.adc, u, self.temperature_lsb), expected_code_slope(self.adc, u, self.temperature_lsb) * du, u, du
 
     def quantize(self, u: Array) -> Array:

@@ -3,7 +3,7 @@
     exposure (optical path, background light, mixer, dark signal)       -> expected tap charges
     noise before the limit (photon shot, dark shot, reset kTC)           -> per-tap variances
     limit (SBI or saturation, hard or smooth)                            -> held tap charges
-    noise after the limit (hold kTC)                                     -> differential variance
+    noise after the limit (hold kTC, readout)                            -> differential variance
     readout (conversion gain, ADC with offset, gain, INL, DNL, rails)    -> codes
     demodulation (Z = sum_j D_j exp(i theta_j))                          -> phase, amplitude, depth
 
@@ -24,7 +24,7 @@ from ._correlation import SERIES_POINTS, Correlation, correlation
 from ._mixer import TapCharges, expose
 from ._noise import NoiseBudget
 from ._params import Params
-from ._saturation import SBI, AbstractLimit, Saturation, full_well_e
+from ._saturation import AbstractLimit, full_well_e, limit_stage
 from ._smooth import Smooth
 
 
@@ -76,7 +76,7 @@ def build_chain(params: Params, smooth: Smooth | None = None, points: int | None
     pixel = params.pixel
     well = full_well_e(pixel.v_reset_v, pixel.v_saturated_v, per_volt)
     temperature_e = None if smooth is None else smooth.saturation_temperature_v * per_volt
-    limit = SBI(well, temperature_e) if pixel.sbi else Saturation(well, temperature_e)
+    limit = limit_stage(well, pixel.sbi, temperature_e)
     readout = Readout(params.adc, per_volt, None if smooth is None else smooth.adc_temperature_lsb)
     table = correlation(params.illumination_waveform, params.reference_waveform, pixel.n_phases,
                         tabulate=points is None or points > SERIES_POINTS)

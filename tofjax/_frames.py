@@ -210,22 +210,23 @@ def run_blocks(step: Callable, consts, n_points: int, frames: int, keep: int, ph
         sums = record = None
         if keep > 0:
             sums, record = step(cb, jnp.uint32(0), keep, jnp.ones((keep,), dtype=bool), True)
-        if n_chunks == 1:  # no loop: a smaller program
-            counted = (keep + jnp.arange(chunk)) < frames
-            more, _ = step(cb, jnp.uint32(keep), chunk, counted, False)
-            sums = more if sums is None else jax.tree_util.tree_map(jnp.add, sums, more)
-        elif n_chunks > 1:
-            def body(total, i):
-                first = keep + i * chunk
-                counted = (first + jnp.arange(chunk)) < frames
-                part, _ = step(cb, first.astype(jnp.uint32), chunk, counted, False)
-                return jax.tree_util.tree_map(jnp.add, total, part), None
+        if n_chunks == 0:
+            return sums, record
 
-            shapes, _ = jax.eval_shape(lambda: step(cb, jnp.uint32(0), chunk, jnp.ones((chunk,), dtype=bool), False))
+        def chunk_sums(first):  # frames first .. first + chunk - 1; those past `frames` not counted
+            counted = (first + jnp.arange(chunk)) < frames
+            return step(cb, jnp.asarray(first).astype(jnp.uint32), chunk, counted, False)[0]
+
+        if n_chunks == 1:  # no loop: a smaller program
+            more = chunk_sums(keep)
+        else:
+            def body(total, i):
+                return jax.tree_util.tree_map(jnp.add, total, chunk_sums(keep + i * chunk)), None
+
+            shapes = jax.eval_shape(chunk_sums, keep)
             zeros = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
             more, _ = lax.scan(jax.checkpoint(body), zeros, jnp.arange(n_chunks))
-            sums = more if sums is None else jax.tree_util.tree_map(jnp.add, sums, more)
-        return sums, record
+        return (more if sums is None else jax.tree_util.tree_map(jnp.add, sums, more)), record
 
     blocks = jax.tree_util.tree_map(split, consts)
     if n_blocks == 1:

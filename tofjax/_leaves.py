@@ -4,6 +4,7 @@ calibration, the explorer and gradient studies."""
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 
 import equinox as eqx
@@ -14,6 +15,7 @@ from ._params import SECTION_CLASSES, Params
 from ._schema import KEY_BY_DOTTED, suggest
 
 
+@functools.cache
 def float_leaf_names() -> tuple[str, ...]:
     """Every float configuration key that is a traced leaf of :class:`tofjax.Params`, in schema order."""
     out = []

@@ -129,7 +129,16 @@ class DarkShotNoise(AbstractNoiseSource):
         return charges.dark_a[..., None], charges.dark_b[..., None]
 
 
-class ResetNoise(AbstractNoiseSource):
+class AbstractConstantNoise(AbstractNoiseSource):
+    """A source of the same rms ``sigma_e`` on each tap, whatever the charges (kTC, readout)."""
+
+    sigma_e: eqx.AbstractVar[Float[Array, ""]]
+
+    def variance_e2(self, charges: TapCharges) -> tuple[Array, Array]:
+        return self.sigma_e**2, self.sigma_e**2
+
+
+class ResetNoise(AbstractConstantNoise):
     """kTC noise of the reset on the integration capacitance (Eqs 2.21-2.22)."""
 
     name: ClassVar[str] = "reset"
@@ -141,11 +150,8 @@ class ResetNoise(AbstractNoiseSource):
     def from_params(cls, params: Params) -> ResetNoise:
         return cls(reset_noise_e(params.pixel, params.constants))
 
-    def variance_e2(self, charges: TapCharges) -> tuple[Array, Array]:
-        return self.sigma_e**2, self.sigma_e**2
 
-
-class HoldNoise(AbstractNoiseSource):
+class HoldNoise(AbstractConstantNoise):
     """kTC noise of the sample-and-hold, on the held charge (§4.2.12)."""
 
     name: ClassVar[str] = "hold"
@@ -157,11 +163,8 @@ class HoldNoise(AbstractNoiseSource):
     def from_params(cls, params: Params) -> HoldNoise:
         return cls(hold_noise_e(params.pixel, params.constants))
 
-    def variance_e2(self, charges: TapCharges) -> tuple[Array, Array]:
-        return self.sigma_e**2, self.sigma_e**2
 
-
-class ReadoutNoise(AbstractNoiseSource):
+class ReadoutNoise(AbstractConstantNoise):
     """The readout chain's noise beyond kTC (source follower, column amplifier, ADC input), per tap,
     on the held charge: a data sheet's read noise in electrons (``pixel.readout_noise_e``)."""
 
@@ -173,9 +176,6 @@ class ReadoutNoise(AbstractNoiseSource):
     @classmethod
     def from_params(cls, params: Params) -> ReadoutNoise:
         return cls(params.pixel.readout_noise_e)
-
-    def variance_e2(self, charges: TapCharges) -> tuple[Array, Array]:
-        return self.sigma_e**2, self.sigma_e**2
 
 
 #: The pixel's noise sources, in the order of the breakdown.

@@ -25,11 +25,6 @@ CAVEATS = {
 }
 
 
-def describe_caveats(code: int) -> list[str]:
-    """The texts of the caveat bits set in ``code``."""
-    return [text for bit, text in CAVEATS.items() if int(code) & bit]
-
-
 class NoiseBreakdown(eqx.Module):
     """Electron counts of one phase image (both taps) and the rms noise of each source in the
     differential A - B, per operating point (the photon transfer curve, Figs 5.12, 5.14, 5.17).

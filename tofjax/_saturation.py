@@ -177,15 +177,18 @@ def full_well_e(v_reset_v: Array, v_saturated_v: Array, electrons_per_volt: Arra
     return (v_reset_v - v_saturated_v) * electrons_per_volt
 
 
+def limit_stage(full_well: Float[Array, ""], sbi: bool, temperature_e: Float[Array, ""] | None = None) -> AbstractLimit:
+    """The limit of a pixel: :class:`SBI` if the circuit is enabled, else :class:`Saturation`."""
+    return SBI(full_well, temperature_e) if sbi else Saturation(full_well, temperature_e)
+
+
 def saturate(n_a: Float[Array, "*b"], n_b: Float[Array, "*b"], full_well: Float[Array, ""], sbi: bool,
              temperature_e: Float[Array, ""] | None = None) -> tuple[Float[Array, "*b"], Float[Array, "*b"]]:
     """Apply SBI (if enabled) and saturation to the electrons of taps A and B (module docstring)."""
-    stage = SBI(full_well, temperature_e) if sbi else Saturation(full_well, temperature_e)
-    return stage(n_a, n_b)
+    return limit_stage(full_well, sbi, temperature_e)(n_a, n_b)
 
 
 def flags(n_a: Float[Array, "*b"], n_b: Float[Array, "*b"], full_well: Float[Array, ""],
           sbi: bool) -> tuple[Bool[Array, "*b"], Bool[Array, "*b"]]:
     """(pixel saturated, SBI engaged) for unlimited tap electrons (hard criteria)."""
-    stage = SBI(full_well) if sbi else Saturation(full_well)
-    return stage.flags(n_a, n_b)
+    return limit_stage(full_well, sbi).flags(n_a, n_b)

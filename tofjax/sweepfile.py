@@ -314,7 +314,7 @@ def write_sweep(path: str | os.PathLike, metadata: Mapping[str, object], columns
 
 #: Columns a simulation writes beyond the required ones (the noise breakdown and flags): these, then
 #: ``noise_<source>_e`` for every source of the noise budget (:data:`tofjax.NOISE_SOURCES`: reset, hold,
-#: photon_shot, dark_shot), then :data:`SIMULATION_TAIL_COLUMNS`.
+#: photon_shot, dark_shot, readout), then :data:`SIMULATION_TAIL_COLUMNS`.
 SIMULATION_COLUMNS = ("depth_unwrapped_mean_m", "snr_db", "intensity_e", "signal_e", "background_e", "dark_e")
 SIMULATION_TAIL_COLUMNS = (
     "noise_read_e", "noise_quantization_e", "noise_total_e", "pixel_saturated_fraction", "adc_saturated_fraction",
