@@ -136,8 +136,15 @@ def load_rows(path: str | Path, config: tj.Config, *, relative_error: float | No
         bad = measured & ~(np.abs(values) > 0) if relative_error is not None else np.zeros_like(measured)
         if np.any(bad):
             i = int(np.argmax(bad))
-            raise CalibrationInputError(f"{path}:{data.lines[i]}: {name} = 0 has a zero relative uncertainty; "
-                                        "such a row cannot be weighted")
+            raise CalibrationInputError(f"{path}:{data.lines[i]}: column {name} (field {data.fields[name]}) = 0 has a "
+                                        "zero relative uncertainty; such a row cannot be weighted")
+        zero_std = measured & (values == 0) & (frames >= 2) if name == "depth_std_m" else np.zeros_like(measured)
+        if np.any(zero_std):  # the model predicts noise; a zero is a recording or export error
+            i = int(np.argmax(zero_std))
+            raise CalibrationInputError(
+                f"{path}:{data.lines[i]}: column depth_std_m (field {data.fields[name]}) = 0 over {frames[i]:g} frames: "
+                "a measured depth noise cannot be exactly zero (a camera quantising depth coarser than its noise, or "
+                "an export error); leave the cell empty if it was not measured")
         out[name] = (values, measured)
     if sum(int(np.sum(v[1])) for v in out.values()) == 0:
         raise CalibrationInputError(f"{path}: no row enters the fit ({excluded['saturated']} saturated, "

@@ -170,8 +170,8 @@ def fit_least_squares(problem: Problem, rows, *, max_steps: int = 256, rtol: flo
     if problem.n_residuals < n_params:
         raise ValueError(f"{problem.n_residuals} residuals cannot determine {n_params} parameters")
     solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
-    sol = optx.least_squares(_residual_function(problem), solver, problem.initial_unconstrained(), max_steps=max_steps,
-                             throw=False)
+    sol = optx.least_squares(_residual_function(problem, max_steps), solver, problem.initial_unconstrained(),
+                             max_steps=max_steps, throw=False)
     converged = bool(sol.result == optx.RESULTS.successful)
     message = optx.RESULTS[sol.result] if not converged else "successful"
     steps = int(sol.stats["num_steps"])
@@ -202,10 +202,13 @@ def fit_least_squares(problem: Problem, rows, *, max_steps: int = 256, rtol: flo
     )
 
 
-def _residual_function(problem: Problem):
+def _residual_function(problem: Problem, max_steps: int):
     """The residuals of ``problem`` as a function of the unconstrained parameters, for optimistix:
     value and Jacobian from the compiled :func:`fitting._problem.linearize` (a host callback, cached
-    per point), with a custom JVP J @ du."""
+    per point), with a custom JVP J @ du. Every new point is a step for :mod:`tofjax.progress`
+    (out of ``max_steps``: the time left is an upper bound)."""
+    from tofjax.progress import tick
+
     cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
     def host(u):
@@ -217,6 +220,7 @@ def _residual_function(problem: Problem):
             with jax.default_device(None):
                 lin = linearize(problem, np.array(u, dtype=np.float64))
             cache[key] = (np.asarray(lin.residuals), np.asarray(lin.jacobian))
+            tick(max_steps)
         return cache[key]
 
     n = sum(int(np.size(m)) for g in problem.groups for m in g.masks)

@@ -97,11 +97,19 @@ def make_parameters(
     names = list(names)
     if not names:
         raise CalibrationInputError("no parameter to fit: give at least one name with --fit")
-    for name in [*names, *bounds, *priors]:
-        if name not in allowed:
-            hint = " (an operating-point column of the sweep files, not a parameter)" if name in OPERATING_POINT else ""
-            raise CalibrationInputError(
-                f"unknown parameter {name!r}{hint}{suggest(name, allowed)}; fittable: " + ", ".join(allowed))
+    for option, group in (("--fit", names), ("--bounds", bounds), ("--prior", priors)):  # named as on the CLI
+        for name in group:
+            if name in OPERATING_POINT:
+                raise CalibrationInputError(f"{option}: {name} is not fittable: it is an operating-point column of the "
+                                            "sweep files (a per-row input), not a parameter")
+            if name in KEY_BY_DOTTED and name not in allowed:
+                kind = KEY_BY_DOTTED[name].kind
+                what = {"int": "an integer", "bool": "true/false", "choice": "a choice"}.get(kind, f"a {kind}")
+                raise CalibrationInputError(f"{option}: {name} is not fittable ({what}; only real-valued keys are): "
+                                            "set it in the configuration instead")
+            if name not in allowed:
+                raise CalibrationInputError(f"{option}: unknown parameter {name!r}{suggest(name, allowed)}; fittable: "
+                                            + ", ".join(allowed))
     if len(set(names)) != len(names):
         raise CalibrationInputError(f"parameter named twice in {names}")
     for name in [*bounds, *priors]:

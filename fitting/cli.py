@@ -49,30 +49,61 @@ def register(subparsers) -> None:
     p.add_argument("--resume", action="store_true", help="continue the chain stored in --backend")
     p.add_argument("--seed", type=int, default=0, help="random seed of the sampler (default 0)")
     p.add_argument("--out", type=Path, required=True, help="output directory")
+    p.add_argument("--check", action="store_true", help="validate the files, names, bounds and outputs, print what "
+                                                        "would be fitted, fit nothing")
+    p.add_argument("--quiet", action="store_true", help="no progress report")
     p.set_defaults(run=run)
+
+
+def _check_outputs(args) -> None:
+    """Every output before any work (a fit must not end in "cannot write" after a minute)."""
+    from tofjax.cli import CommandError, check_output_dir, check_output_file
+
+    if args.resume and args.backend is None:
+        raise CommandError("--resume continues the chain stored in --backend FILE.h5: give --backend", 2)
+    if args.backend is not None:
+        if not args.mcmc:
+            raise CommandError("--backend stores the posterior chain: it needs --mcmc", 2)
+        try:
+            import h5py  # noqa: F401
+        except ImportError:
+            raise CommandError("--backend needs h5py: pip install h5py (or \"tofjax[hdf5]\")", 2) from None
+        check_output_file(args.backend, "--backend")
+    check_output_dir(args.out, "--out")
 
 
 def run(args) -> int:
     import tofjax as tj
     from tofjax.cli import CommandError
+    from tofjax.progress import Progress, reporting
 
-    from ._calibrate import calibrate
+    from ._calibrate import calibrate, check_inputs
     from ._least_squares import ConvergenceError
 
+    _check_outputs(args)
     config = tj.load_config(args.config) if args.config else tj.Config()
     names = [n.strip() for n in args.fit.split(",") if n.strip()]
+    if args.check:
+        rows, parameters = check_inputs(args.sweeps, config, fit=names, bounds=dict(args.bounds),
+                                        priors=dict(args.prior), relative_error=args.relative_error,
+                                        min_snr=args.min_snr)
+        used = sum(len(r.used(o)) for r in rows for o in r.data)
+        print(f"plan: fit {', '.join(p.name for p in parameters)} to {used} measured values in {len(rows)} file(s); "
+              f"into {args.out}")
+        return 0
     try:
         with warnings.catch_warnings():  # a short chain is reported below as a "warning:" line
             if args.mcmc:  # emcee is imported only for a posterior
                 from ._posterior import ShortChainWarning
 
                 warnings.simplefilter("ignore", ShortChainWarning)
-            cal = calibrate(args.sweeps, config, fit=names, bounds=dict(args.bounds), priors=dict(args.prior),
-                            relative_error=args.relative_error, min_snr=args.min_snr, mcmc=args.mcmc,
-                            walkers=args.walkers, steps=args.steps, seed=args.seed, backend=args.backend,
-                            resume=args.resume, progress=args.mcmc, max_steps=args.max_steps)
-    except ConvergenceError as err:
-        raise CommandError(str(err), 1) from None
+            with reporting(Progress(args.max_steps, "least squares", unit="step", enabled=not args.quiet)):
+                cal = calibrate(args.sweeps, config, fit=names, bounds=dict(args.bounds), priors=dict(args.prior),
+                                relative_error=args.relative_error, min_snr=args.min_snr, mcmc=args.mcmc,
+                                walkers=args.walkers, steps=args.steps, seed=args.seed, backend=args.backend,
+                                resume=args.resume, progress=args.mcmc and not args.quiet, max_steps=args.max_steps)
+    except ConvergenceError as err:  # name the option, not the API argument
+        raise CommandError(str(err).replace("`max_steps`", f"--max-steps (now {args.max_steps})"), 1) from None
     try:
         written = cal.write(args.out)
     except OSError as err:

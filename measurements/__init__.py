@@ -1,9 +1,12 @@
 """measurements: record tofjax-sweep files on a linear translation stage (thesis §3.5, §4.4.1).
 
-Drivers: Thorlabs APT stages over USB (:class:`AptStage` on :class:`FtdiTransport`), pmd Royale
-cameras (:class:`RoyaleCamera`), a manual lux meter; virtual stage, camera and lux meter that run a
-whole campaign on tofjax's model; and :class:`FakeAptController`, a byte-exact fake for tests. The
-command line is ``tofjax record``. Names load on first use (``tofjax --help`` stays fast).
+Devices sit behind three interfaces (:class:`Stage`, :class:`Camera`, :class:`LuxMeter`; typing
+protocols) and one registry of the names ``tofjax record`` takes. Drivers: Thorlabs APT stages over
+USB (:class:`AptStage` on :class:`FtdiTransport`), pmd Royale cameras (:class:`RoyaleCamera`), a
+manual lux meter; virtual stage, camera and lux meter that run a whole campaign on tofjax's model;
+and fakes for tests: :class:`FakeAptController` (byte-exact APT controller) and :class:`FakeRoypy`
+(the Royale Python API). The command line is ``tofjax record``. Names load on first use
+(``tofjax --help`` stays fast).
 """
 
 from __future__ import annotations
@@ -14,11 +17,13 @@ from typing import TYPE_CHECKING
 _EXPORTS = {
     "COUNTS_PER_MM": "_apt", "AptStage": "_apt", "FtdiTransport": "_apt", "StageError": "_apt",
     "StageLimitError": "_apt",
-    "CampaignSettings": "_campaign", "campaign_metadata": "_campaign", "point_statistics": "_campaign",
-    "run_campaign": "_campaign",
-    "CameraError": "_devices", "Frames": "_devices", "ManualLuxMeter": "_devices", "RoyaleCamera": "_devices",
-    "VirtualCamera": "_devices", "VirtualLuxMeter": "_devices", "VirtualStage": "_devices",
-    "FakeAptController": "_fake_apt",
+    "CampaignSettings": "_campaign", "campaign_metadata": "_campaign", "check_resume": "_campaign",
+    "point_statistics": "_campaign", "run_campaign": "_campaign",
+    "ManualLuxMeter": "_devices", "VirtualCamera": "_devices", "VirtualLuxMeter": "_devices", "VirtualStage": "_devices",
+    "Camera": "_interfaces", "CameraError": "_interfaces", "DeviceError": "_interfaces", "Frames": "_interfaces",
+    "LuxMeter": "_interfaces", "LuxMeterError": "_interfaces", "Stage": "_interfaces",
+    "RoyaleCamera": "_royale",
+    "FakeAptController": "_fake_apt", "FakeRoypy": "_fake_roypy",
 }
 __all__ = sorted(_EXPORTS)
 
@@ -37,7 +42,10 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # pragma: no cover
     from ._apt import COUNTS_PER_MM, AptStage, FtdiTransport, StageError, StageLimitError  # noqa: F401
-    from ._campaign import CampaignSettings, campaign_metadata, point_statistics, run_campaign  # noqa: F401
-    from ._devices import (  # noqa: F401
-        CameraError, Frames, ManualLuxMeter, RoyaleCamera, VirtualCamera, VirtualLuxMeter, VirtualStage)
+    from ._campaign import (  # noqa: F401
+        CampaignSettings, campaign_metadata, check_resume, point_statistics, run_campaign)
+    from ._devices import ManualLuxMeter, VirtualCamera, VirtualLuxMeter, VirtualStage  # noqa: F401
     from ._fake_apt import FakeAptController  # noqa: F401
+    from ._fake_roypy import FakeRoypy  # noqa: F401
+    from ._interfaces import Camera, CameraError, DeviceError, Frames, LuxMeter, LuxMeterError, Stage  # noqa: F401
+    from ._royale import RoyaleCamera  # noqa: F401

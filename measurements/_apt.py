@@ -19,6 +19,8 @@ from typing import Protocol
 
 import thorlabs_apt_protocol as apt
 
+from ._interfaces import DeviceError
+
 HOST = 0x01
 GENERIC_USB = 0x50
 #: Encoder counts per mm of common stages (Thorlabs manuals).
@@ -26,7 +28,7 @@ COUNTS_PER_MM = {"z8": 34304.0, "lts": 409600.0, "dds": 20000.0}
 _REQ_STATUSBITS = 0x0429
 
 
-class StageError(RuntimeError):
+class StageError(DeviceError):
     """A stage failure: timeout, unexpected reply, lost device, refused move."""
 
 
@@ -185,7 +187,7 @@ class AptStage:
         """Move to ``position_m`` (m) and return the position read back."""
         lo, hi = self.travel_m
         if not lo <= position_m <= hi:
-            raise StageLimitError(f"stage position {position_m!r} m is outside the travel: allowed {lo:g} <= "
+            raise StageLimitError(f"stage position {float(position_m):g} m is outside the travel: allowed {lo:g} <= "
                                   f"value <= {hi:g} m; nothing moved")
         counts = self.to_counts(position_m)
         self._guarded(lambda: self._send(apt.mot_move_absolute(self.destination, HOST, self.channel, counts)),

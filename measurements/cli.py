@@ -1,26 +1,14 @@
 """``tofjax record``: registered with the ``tofjax`` command through the ``tofjax.commands`` entry
 point (see :mod:`tofjax.cli`). Settings come from the options and/or a TOML campaign file
-(``[campaign]`` with the same names, underscores for dashes); options win."""
+(``[campaign]`` with the same names, underscores for dashes); options win. Every setting is
+validated (:mod:`measurements._settings`) and every stage position checked before anything moves;
+``--check`` stops there and prints the plan."""
 
 from __future__ import annotations
 
-import argparse
-import tomllib
 from pathlib import Path
 
-from tofjax.cli import finite_float, positive_float, positive_int
-
-_DEFAULTS = {"frames": 100, "roi": "3,3", "stage": "virtual", "camera": "virtual", "lux": "virtual",
-             "lux_value": 0.0, "counts_per_mm": 409600.0, "travel": "0,4.5", "distance": 1.0,
-             "integration_time": 2e-3, "settle": 0.0, "seed": 0, "distance_offset": 0.0}
-
-
-def _pair(text: str, kind=float):
-    try:
-        a, b = (kind(x) for x in str(text).split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not two comma-separated numbers") from None
-    return a, b
+from ._settings import OPTIONS, argparse_type
 
 
 def register(subparsers) -> None:
@@ -31,99 +19,89 @@ def register(subparsers) -> None:
                     "--resume continues it. Without hardware, the virtual stage, camera and lux meter run tofjax's "
                     "Monte Carlo model.")
     p.add_argument("--campaign", type=Path, help="TOML campaign file ([campaign] with the options below)")
-    p.add_argument("--config", type=Path, help="camera model configuration for the virtual camera")
-    p.add_argument("--sweep", choices=("distance", "integration_time", "illuminance"))
-    p.add_argument("--from", dest="start", type=finite_float, help="first point (m, s or lx)")
-    p.add_argument("--to", dest="stop", type=finite_float, help="last point (m, s or lx)")
-    p.add_argument("--samples", type=positive_int, help="number of points")
-    p.add_argument("--frames", type=positive_int, help=f"frames per point (default {_DEFAULTS['frames']})")
-    p.add_argument("--roi", help="centre ROI width,height in pixels (default 3,3)")
-    p.add_argument("--stage", help="virtual (default), fake (byte-exact fake APT controller) or an FTDI URL such as "
-                                   "ftdi://0x0403:0xfaf0/1")
-    p.add_argument("--counts-per-mm", type=positive_float, help="stage encoder counts per mm (LTS: 409600)")
-    p.add_argument("--travel", help="stage travel lo,hi in m (default 0,4.5)")
-    p.add_argument("--distance-offset", type=finite_float, help="target distance minus stage position, m")
-    p.add_argument("--camera", choices=("virtual", "royale"), help="camera (default virtual)")
-    p.add_argument("--use-case", help="Royale use case (sets the modulation frequencies)")
-    p.add_argument("--lux", choices=("virtual", "manual"), help="lux meter (default virtual)")
-    p.add_argument("--lux-value", type=finite_float, help="virtual lux meter reading for non-illuminance sweeps")
-    p.add_argument("--distance", type=positive_float, help="target distance for non-distance sweeps, m")
-    p.add_argument("--integration-time", type=positive_float, help="exposure for non-exposure sweeps, s")
-    p.add_argument("--settle", type=finite_float, help="wait after every move or change, s")
-    p.add_argument("--seed", type=int, help="seed of the virtual camera")
-    p.add_argument("--raw-dir", type=Path, help="also save every point's frames as .npz here")
-    p.add_argument("--resume", action="store_true", help="continue an interrupted recording in --out")
-    p.add_argument("--out", type=Path, help="output CSV (tofjax-sweep format)")
+    for opt in OPTIONS:
+        if opt.kind == "bool":
+            p.add_argument(opt.flag, dest=opt.key, action="store_true", default=None, help=opt.help)
+        else:
+            p.add_argument(opt.flag, dest=opt.key, type=argparse_type(opt), help=opt.help,
+                           metavar=opt.key.upper() if opt.kind != "choice" else None,
+                           choices=opt.choices if opt.kind == "choice" else None)
+    p.add_argument("--check", action="store_true", help="validate everything, print the plan, record nothing")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
 
 
-def _settings(args) -> dict:
-    values = dict(_DEFAULTS)
-    if args.campaign is not None:
-        try:
-            table = tomllib.loads(args.campaign.read_text(encoding="utf-8"))
-        except (OSError, tomllib.TOMLDecodeError) as err:
-            raise ValueError(f"{args.campaign}: cannot read the campaign file: {err}") from None
-        campaign = table.get("campaign", {})
-        known = set(vars(args)) - {"command", "run", "campaign"}
-        for key, value in campaign.items():
-            if key not in known:
-                from tofjax.schema import suggest
-
-                raise ValueError(f"{args.campaign}: unknown campaign key {key!r}{suggest(key, sorted(known))}")
-            values[key] = value
-    for key, value in vars(args).items():
-        if value is not None and value is not False and key not in ("command", "run", "campaign"):
-            values[key] = value
-    for key in ("sweep", "start", "stop", "samples", "out"):
-        if values.get(key) is None:
-            raise ValueError(f"record needs --{key.replace('_', '-')} (or '{key}' in the campaign file)")
-    return values
+def _describe(plan, points) -> str:
+    unit = {"distance": "m", "integration_time": "s", "illuminance": "lx"}[plan["sweep"]]
+    w, h = plan["roi"]
+    return (f"plan: {plan['samples']} points of a {plan['sweep']} sweep, {points[0]:g} .. {points[-1]:g} {unit}; "
+            f"{plan['frames']} frames of a {w}x{h} ROI each; stage {plan['stage']} (travel {plan['travel'][0]:g},"
+            f"{plan['travel'][1]:g} m), camera {plan['camera']}, lux meter {plan['lux']}; into {plan['out']}")
 
 
 def run(args) -> int:
-    import tofjax as tj
-    from tofjax.cli import CommandError
+    from tofjax.cli import CommandError, check_output_dir, check_output_file
 
-    from ._apt import AptStage, FtdiTransport, StageError
-    from ._campaign import CampaignSettings, campaign_metadata, run_campaign
-    from ._devices import CameraError, ManualLuxMeter, RoyaleCamera, VirtualCamera, VirtualLuxMeter, VirtualStage
-    from ._fake_apt import FakeAptController
+    from . import _registry as reg
+    from ._settings import CampaignInputError, resolve
 
-    v = _settings(args)
-    config = tj.load_config(v["config"]) if v.get("config") else tj.Config()
-    roi = _pair(v["roi"], int)
-    travel = _pair(v["travel"])
-    settings = CampaignSettings(v["sweep"], float(v["start"]), float(v["stop"]), int(v["samples"]), int(v["frames"]),
-                                roi, float(v["distance"]), float(v["integration_time"]), float(v["lux_value"]),
-                                float(v["settle"]), Path(v["raw_dir"]) if v.get("raw_dir") else None)
-    if v["stage"] == "virtual":
-        stage = VirtualStage(settings.distance_m, travel)
-    else:
-        # The fake controller here stands in for a stage in a demonstration or a test: it moves at
-        # 1e10 counts/s (the real driver, bytes and all, without waiting for a 50 mm/s stage).
-        transport = FakeAptController(velocity_counts_per_s=1e10) if v["stage"] == "fake" else FtdiTransport(v["stage"])
-        stage = AptStage(transport, counts_per_mm=float(v["counts_per_mm"]), travel_m=travel)
-    lux = ManualLuxMeter() if v["lux"] == "manual" else VirtualLuxMeter(settings.illuminance_lx)
     try:
-        if v["camera"] == "royale":
-            camera = RoyaleCamera(roi, v.get("use_case"))
-        else:
-            camera = VirtualCamera(config.params, stage, lux, roi, int(v["seed"]), float(v["distance_offset"]))
-        stage.enable()
-        if v["stage"] != "virtual":
-            stage.home()
-        camera.open()
+        plan = resolve({k: v for k, v in vars(args).items() if k not in ("command", "run")})
+    except CampaignInputError as err:
+        raise CommandError(str(err), 2) from None
+    import tofjax as tj
+
+    from ._campaign import CampaignSettings, campaign_metadata, check_resume, run_campaign
+    from ._interfaces import DeviceError, LuxMeterError
+    from ._settings import grid_metadata, points
+
+    config = tj.load_config(plan["config"]) if plan["config"] is not None else tj.Config()
+    out = plan["out"]
+    check_output_file(out, plan.name("out"))
+    if plan["raw_dir"] is not None:
+        check_output_dir(plan["raw_dir"], plan.name("raw_dir"))
+    settings = CampaignSettings(plan["sweep"], plan["start"], plan["stop"], plan["samples"], plan["frames"],
+                                plan["roi"], plan["distance"], plan["integration_time"], plan["lux_value"],
+                                plan["settle"], plan["raw_dir"])
+    grid = grid_metadata(plan, config.values)
+    if plan["resume"] and out.exists():
+        try:
+            check_resume(out, settings, grid)
+        except ValueError as err:
+            raise CommandError(str(err), 2) from None
+    print(_describe(plan, points(plan)))
+    if args.check:
+        return 0
+    ctx = reg.DeviceContext(config, plan["roi"], plan["travel"], plan["counts_per_mm"], plan["distance"],
+                            plan["lux_value"], plan["seed"], plan["distance_offset"], plan["use_case"])
+    stage = camera = None
+    try:
+        try:  # opening: an absent or misnamed device is an input problem (exit status 2)
+            stage = reg.make_stage(plan["stage"], ctx)
+            lux = reg.make_lux_meter(plan["lux"], ctx)
+            camera = reg.make_camera(plan["camera"], ctx, stage, lux)
+            stage.enable()
+            if plan["stage"] != "virtual":
+                stage.home()
+            camera.open()
+        except DeviceError as err:
+            raise CommandError(str(err), 2) from None
         meta = campaign_metadata(settings, camera, stage, lux, config.params, {
-            "stage_url": v["stage"], "stage_travel_m": f"{travel[0]:g},{travel[1]:g}"})
-        if v["camera"] == "virtual":
+            "stage_url": plan["stage"], "stage_travel_m": f"{plan['travel'][0]:g},{plan['travel'][1]:g}", **grid})
+        if plan["camera"] == "virtual":
             meta["source"] = "simulation"
             meta["note"] = "virtual camera: rendered by tofjax's Monte Carlo, not a measurement"
-        written = run_campaign(settings, stage=stage, camera=camera, lux=lux, out=v["out"], metadata=meta,
-                               resume=bool(v.get("resume")), distance_offset_m=float(v["distance_offset"]))
-    except (StageError, CameraError) as err:
-        raise CommandError(str(err), 1) from None
+        written = run_campaign(settings, stage=stage, camera=camera, lux=lux, out=out, metadata=meta,
+                               resume=bool(plan["resume"]), distance_offset_m=plan["distance_offset"],
+                               progress=not args.quiet)
+    except DeviceError as err:  # during the recording: every completed row is in the file
+        # A lux meter without its operator is an input problem (2); a device that failed, a fault (1).
+        raise CommandError(f"{err} (every completed point is in {out}; --resume continues)",
+                           2 if isinstance(err, LuxMeterError) else 1) from None
     finally:
-        stage.close()
-    print(f"recorded {written} points into {v['out']}")
+        if camera is not None:
+            camera.close()
+        if stage is not None:
+            stage.close()
+    print(f"recorded {written} points into {out}")
     return 0

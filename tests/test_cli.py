@@ -56,7 +56,7 @@ def test_simulate_uses_the_configuration(tmp_path):
         ("[pixel]\nn_phases = \n", [], "line 2, column 12: malformed TOML"),
         ("", ["--samples", "0"], "argument --samples: 0 is out of range"),
         ("", ["--from", "3", "--to", "1"], "must be less than"),
-        ("", ["--from", "-1"], "scene.distance_m = .* is out of range"),
+        ("", ["--from", "-1"], r"--from = -1.0 is out of range for the distance sweep: allowed 0 < value <= 1000 \[m\]$"),
     ],
 )
 def test_bad_input_exits_2_with_one_line(tmp_path, capsys, config_text, extra, pattern):

@@ -160,7 +160,7 @@ def test_manual_lux_meter_asks_again_until_it_gets_a_number():
 
 def test_royale_without_the_sdk_says_how_to_install_it():
     with pytest.raises(ms.CameraError, match="Royale SDK.*roypy.*PYTHONPATH"):
-        ms.RoyaleCamera()
+        ms.RoyaleCamera(modulation_frequency_hz=80.32e6)
 
 
 def test_record_command_through_the_fake_stage_and_a_campaign_file(tmp_path, capsys):
@@ -178,5 +178,6 @@ def test_record_command_through_the_fake_stage_and_a_campaign_file(tmp_path, cap
     assert main(["record", "--campaign", str(bad), "--out", str(out)]) == 2
     assert "unknown campaign key 'frams' (did you mean \"frames\"?)" in capsys.readouterr().err
     assert main(["record", "--sweep", "distance", "--from", "1", "--to", "9", "--samples", "2", "--stage", "fake",
-                 "--out", str(tmp_path / "x.csv")]) == 1
-    assert "outside the travel" in capsys.readouterr().err
+                 "--out", str(tmp_path / "x.csv")]) == 2  # every point checked before anything moves
+    assert "1 of 2 are outside --travel 0,4.5 m; nothing moved" in capsys.readouterr().err
+    assert not (tmp_path / "x.csv").exists()

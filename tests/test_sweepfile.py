@@ -48,6 +48,7 @@ def test_float_values_round_trip_exactly(tmp_path_factory, values):
     cols = {c: np.asarray(values) for c in sf.REQUIRED_COLUMNS}
     cols["n_frames"] = np.full(len(values), 10.0)
     cols["valid_fraction"] = np.full(len(values), 0.5)
+    cols["integration_time_s"] = np.asarray(values) / 1e3  # within its range, 0 < value <= 1 s
     sf.write_sweep(path, META, cols)
     back = sf.read_sweep(path).columns
     for c in cols:

@@ -42,9 +42,10 @@ _EXPORTS = {
     "Chain": "_chain", "build_chain": "_chain",
     "AbstractNoiseSource": "_noise", "NoiseBudget": "_noise", "NOISE_SOURCES": "_noise",
     "get_leaf": "_leaves", "set_leaves": "_leaves",
+    "SPEED_OF_LIGHT_M_PER_S": "_constants",
 }
 #: Public submodules, loaded on first use.
-_SUBMODULES = ("plots", "report", "schema", "stats", "sweepfile", "cli")
+_SUBMODULES = ("plots", "progress", "report", "schema", "stats", "sweepfile", "cli")
 
 
 def __getattr__(name: str):
@@ -78,10 +79,11 @@ def explorer(config=None):
 
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
-    from . import plots, report, schema, stats, sweepfile  # noqa: F401
+    from . import plots, progress, report, schema, stats, sweepfile  # noqa: F401
     from ._analytic import predict  # noqa: F401
     from ._background import background_irradiance_w_per_m2, background_photon_irradiance  # noqa: F401
     from ._chain import Chain, build_chain  # noqa: F401
+    from ._constants import SPEED_OF_LIGHT_M_PER_S  # noqa: F401
     from ._config import Config, config_from_dict, default_config_text, load_config  # noqa: F401
     from ._estimate import cw_depth_noise, pulsed_depth_noise  # noqa: F401
     from ._leaves import get_leaf, set_leaves  # noqa: F401

@@ -85,30 +85,60 @@ def config_from_dict(raw: Mapping[str, Any], where: str = "") -> Config:
     return Config(validate(raw, where))
 
 
-def _toml_position(err: tomllib.TOMLDecodeError) -> str:
+def _toml_position(err: tomllib.TOMLDecodeError, text: str) -> str:
     line, col = getattr(err, "lineno", None), getattr(err, "colno", None)
     if line is None:
         match = re.search(r"line (\d+), column (\d+)", str(err))
         if match:
             line, col = int(match.group(1)), int(match.group(2))
+        elif "end of document" in str(err):  # tomllib names no line there: the document's last position
+            lines = text.split("\n")
+            line, col = len(lines), len(lines[-1]) + 1
     return f"line {line}, column {col}" if line is not None else "unknown position"
+
+
+def _decode(data: bytes, path: Path, what: str) -> str:
+    """UTF-8 text of a file, a leading byte-order mark dropped; binary content is named with the
+    line and column of its first bad byte."""
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        head = data[: err.start]
+        line, col = head.count(b"\n") + 1, err.start - (head.rfind(b"\n") + 1) + 1
+        raise ConfigError(f"{path}: line {line}, column {col}: not a text {what}: byte 0x{data[err.start]:02x} is not "
+                          "UTF-8") from None
+    text = text.removeprefix("\ufeff")
+    bad = next((i for i, c in enumerate(text) if c == "\x00"), None)
+    if bad is not None:
+        head = text[:bad]
+        raise ConfigError(f"{path}: line {head.count(chr(10)) + 1}, column {bad - (head.rfind(chr(10)) + 1) + 1}: "
+                          f"not a text {what}: it contains a NUL byte")
+    return text
+
+
+def read_toml(path: str | Path, what: str = "configuration") -> dict[str, Any]:
+    """Read a TOML file (``what`` names it in messages); raises :class:`tofjax.ConfigError` with the
+    file and, for malformed TOML, the line and column. A UTF-8 byte-order mark is accepted."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: {what} not found") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{path}: is a directory, not a {what}") from None
+    except OSError as err:
+        raise ConfigError(f"{path}: cannot read the {what}: {err.strerror or err}") from None
+    text = _decode(data, path, what)
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        msg = getattr(err, "msg", str(err))
+        raise ConfigError(f"{path}: {_toml_position(err, text)}: malformed TOML: {msg}") from None
 
 
 def load_config(path: str | Path) -> Config:
     """Read a TOML configuration file; raises :class:`tofjax.ConfigError` with the file name."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: configuration file not found") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise ConfigError(f"{path}: cannot read configuration: {err}") from None
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        msg = getattr(err, "msg", str(err))
-        raise ConfigError(f"{path}: {_toml_position(err)}: malformed TOML: {msg}") from None
-    return config_from_dict(raw, where=str(path))
+    return config_from_dict(read_toml(path, "configuration file"), where=str(path))
 
 
 def _toml_value(value: Any) -> str:

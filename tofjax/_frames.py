@@ -23,6 +23,7 @@ squares well conditioned and makes a noise-free run's standard deviation exactly
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 
@@ -37,6 +38,7 @@ from ._chain import Chain
 from ._mixer import TapCharges
 from ._noise import AFTER_LIMIT, BEFORE_LIMIT
 from ._random import MAX_ABS_NORMAL, normals
+from .progress import chunk_done
 
 #: Phase images drawn per chunk (about 4 MB per float64 array of the chunk).
 CHUNK_ELEMENTS = 1 << 19
@@ -186,7 +188,7 @@ def chunking(points: int, phases: int, frames: int, elements: int = CHUNK_ELEMEN
 
 
 def run_blocks(step: Callable, consts, n_points: int, frames: int, keep: int, phases: int,
-               elements: int = CHUNK_ELEMENTS, block_points: int = BLOCK_POINTS):
+               elements: int = CHUNK_ELEMENTS, block_points: int = BLOCK_POINTS, progress: bool = False):
     """Run ``step(consts_block, first_frame, n_frames, counted, record) -> (sums, record)`` over blocks
     of points and chunks of frames; return the summed ``sums`` (points axis last) and the first
     ``keep`` frames' records (points axis first), padding removed. ``elements`` and ``block_points``
@@ -194,6 +196,8 @@ def run_blocks(step: Callable, consts, n_points: int, frames: int, keep: int, ph
 
     ``consts`` is a pytree whose leaves have the points axis last (``(..., points)``); ``record``
     tells ``step`` whether to return its frames (the first ``keep``) or ``None`` (later chunks).
+    ``progress``: after every chunk, a host callback counts it (:func:`tofjax.progress.chunk_done`;
+    about 0.1 ms against the chunk's milliseconds).
     """
     block, chunk = chunking(n_points, phases, max(frames - keep, 1), elements, block_points)
     n_blocks = -(-n_points // block)
@@ -219,9 +223,16 @@ def run_blocks(step: Callable, consts, n_points: int, frames: int, keep: int, ph
 
         if n_chunks == 1:  # no loop: a smaller program
             more = chunk_sums(keep)
+            if progress:  # one chunk per block: count blocks
+                jax.debug.callback(functools.partial(chunk_done, total=n_blocks),
+                                   jax.tree_util.tree_leaves(more)[0].ravel()[0])
         else:
             def body(total, i):
-                return jax.tree_util.tree_map(jnp.add, total, chunk_sums(keep + i * chunk)), None
+                total = jax.tree_util.tree_map(jnp.add, total, chunk_sums(keep + i * chunk))
+                if progress:  # after this chunk's sums exist: depend on one of them
+                    jax.debug.callback(functools.partial(chunk_done, total=n_blocks * n_chunks),
+                                       jax.tree_util.tree_leaves(total)[0].ravel()[0])
+                return total, None
 
             shapes = jax.eval_shape(chunk_sums, keep)
             zeros = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)

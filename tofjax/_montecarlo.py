@@ -133,11 +133,12 @@ def assemble(chain: Chain, sweep: Sweep, prepared: Prepared, sums: Sums, kept, i
 
 
 def monte_carlo(chain: Chain, sweep: Sweep, key: PRNGKeyArray, iterations: int, keep_frames: int,
-                dark_slopes_v_per_s=None, chunking: tuple[int, int] = (CHUNK_ELEMENTS, BLOCK_POINTS)) -> Result:
+                dark_slopes_v_per_s=None, chunking: tuple[int, int] = (CHUNK_ELEMENTS, BLOCK_POINTS),
+                progress: bool = False) -> Result:
     """:func:`simulate` on a built chain (``chunking``: phase images per chunk, points per block)."""
     prepared = prepare(chain, sweep, dark_slopes_v_per_s)
     sums, kept = run_blocks(frames_step(chain, key_words(key)), prepared.consts, sweep.samples, iterations,
-                            keep_frames, chain.n_phases, *chunking)
+                            keep_frames, chain.n_phases, *chunking, progress=progress)
     return assemble(chain, sweep, prepared, sums, kept, iterations)
 
 
@@ -151,6 +152,7 @@ def simulate(
     smooth: Smooth | None = None,
     fixed_pattern: bool = False,
     keep_frames: int = 0,
+    progress: bool = False,
 ) -> Result:
     """Monte Carlo simulation: ``iterations`` noisy frames at every operating point.
 
@@ -171,6 +173,8 @@ def simulate(
       pixel population (mean, sigma of ``pixel.dark_slope_*``) instead of taking the mean pixel.
     - ``keep_frames``: how many frames of each point to return whole (``codes``, ``phase_rad``,
       ``depth_m``, ...; static, 0 .. ``iterations``); the statistics always use every frame.
+    - ``progress``: report every chunk of frames to :mod:`tofjax.progress` (static; a host callback
+      per chunk, so a separate program).
 
     **Returns:** a :class:`tofjax.Result` with ``method = "mc"``.
     """
@@ -178,4 +182,5 @@ def simulate(
     check_counts(iterations, keep_frames, sweep.samples, params.pixel.n_phases)
     pattern_key, key = jr.split(key)
     slopes = pixel_dark_slopes(params, pattern_key) if fixed_pattern else None
-    return monte_carlo(build_chain(params, smooth, sweep.samples), sweep, key, iterations, keep_frames, slopes)
+    return monte_carlo(build_chain(params, smooth, sweep.samples), sweep, key, iterations, keep_frames, slopes,
+                       progress=progress)

@@ -99,13 +99,14 @@ class _Combined(eqx.Module):
 
 
 def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, iterations: int,
-                            frequencies_hz, *, keep_frames: int = 0) -> MultiFrequencyResult:
+                            frequencies_hz, *, keep_frames: int = 0, progress: bool = False) -> MultiFrequencyResult:
     """Monte Carlo at every frequency (frames drawn together, chunk by chunk) and the combined,
     unwrapped distance.
 
     **Arguments:** as :func:`tofjax.simulate`, plus ``frequencies_hz``: two or more modulation
     frequencies (concrete values; ``params``' own frequency is replaced by each in turn), and
-    ``keep_frames``: unwrapped frames to return per point (the plots use them).
+    ``keep_frames``: unwrapped frames to return per point (the plots use them); ``progress``: as
+    :func:`tofjax.simulate`.
     """
     check_inputs(params, sweep)
     freqs = np.asarray(frequencies_hz, dtype=float).reshape(-1)
@@ -116,11 +117,11 @@ def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, ite
     c = float(params.constants.speed_of_light_m_per_s)
     ranges = tuple(float(x) for x in c / (2.0 * freqs))
     return _simulate(params, sweep, key, iterations, jnp.asarray(freqs), keep_frames, float(extended_range_m(freqs, c)),
-                     ranges)
+                     ranges, progress)
 
 
 @eqx.filter_jit
-def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges) -> MultiFrequencyResult:
+def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges, progress=False) -> MultiFrequencyResult:
     ranges = np.asarray(ranges)  # concrete: the number of unwrapping candidates depends on them
     n_freq = len(ranges)
 
@@ -161,7 +162,7 @@ def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges) -> 
         return (per, combined), out
 
     (per_sums, combined), kept = run_blocks(step, (prepared.consts, reference, truth), sweep.samples, iterations,
-                                            keep, chains.n_phases)
+                                            keep, chains.n_phases, progress=progress)
     kept_f = None if kept is None else jax.tree_util.tree_map(lambda x: jnp.moveaxis(x, 1, 0), kept[0])
     per = jax.vmap(lambda ch, p, s, k: assemble(ch, sweep, p, s, k, iterations))(chains, prepared, per_sums, kept_f)
     shape = d.shape

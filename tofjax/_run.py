@@ -39,11 +39,12 @@ class Run:
 
 
 def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int | None = None, seed: int = 0,
-              fixed_pattern: bool = False, keep_frames: int = 0) -> Run:
+              fixed_pattern: bool = False, keep_frames: int = 0, progress: bool = False) -> Run:
     """Run ``sweep`` with ``config``: ``method`` ``"mc"`` or ``"analytic"``; ``iterations`` frames per
     sample (default ``pixel.iterations``); ``seed`` of the Monte Carlo; ``keep_frames``: frames per
     sample to keep for plots (at most ``iterations``, and at most what fits 1 GiB for this many samples:
-    :func:`tofjax._montecarlo.max_keep_frames`; the statistics use every frame regardless).
+    :func:`tofjax._montecarlo.max_keep_frames`; the statistics use every frame regardless);
+    ``progress``: the Monte Carlo reports its chunks to :mod:`tofjax.progress`.
 
     Raises ``ValueError`` for an unknown method, and for several modulation frequencies with the
     analytic method (range extension is a per-frame decision, so it needs frames).
@@ -61,11 +62,11 @@ def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int 
     keep = min(keep_frames, iterations, max_keep_frames(sweep.samples * copies, params.pixel.n_phases))
     if len(freqs) > 1:
         multi = jax.device_get(simulate_multifrequency(params, sweep, jax.random.key(seed), iterations, freqs,
-                                                       keep_frames=keep))
+                                                       keep_frames=keep, progress=progress))
         result = jax.tree_util.tree_map(lambda x: x[0], multi.per_frequency)
     elif method == "mc":
         result = simulate(params, sweep, jax.random.key(seed), iterations, fixed_pattern=fixed_pattern,
-                          keep_frames=keep)
+                          keep_frames=keep, progress=progress)
     else:
         result = predict(params, sweep)
     result = jax.device_get(result)

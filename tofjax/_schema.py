@@ -186,8 +186,19 @@ def keys_of(section: str) -> tuple[Key, ...]:
 
 
 def suggest(name: str, options) -> str:
-    """A ``did you mean`` suffix for an unknown name, or an empty string."""
-    close = difflib.get_close_matches(name, list(options), n=1, cutoff=0.6)
+    """A ``did you mean`` suffix for an unknown name, or an empty string.
+
+    Ranked by meaning before spelling: the shortest option the name begins (``pixel.demod`` ->
+    ``pixel.demodulation_contrast``), then the shortest containing it, then the closest spelling
+    (difflib).
+    """
+    options = [str(o) for o in options]
+    low = name.lower()
+    if low:
+        for hits in ([o for o in options if o.lower().startswith(low)], [o for o in options if len(low) >= 3 and low in o.lower()]):
+            if hits:
+                return f' (did you mean "{min(hits, key=len)}"?)'
+    close = difflib.get_close_matches(name, options, n=1, cutoff=0.6)
     return f' (did you mean "{close[0]}"?)' if close else ""
 
 
@@ -288,10 +299,13 @@ def check_array(section: str, name: str, value) -> None:
     key = KEY_BY_DOTTED[f"{section}.{name}"]
     arr = np.asarray(value, dtype=float)
     flat = arr.reshape(-1)
-    for x in flat:
+    for i, x in enumerate(flat):
         if not _in_range(key, float(x)):
+            # One value in the message, not the whole array (a sweep may hold a million).
+            where = "" if arr.ndim == 0 else f" (element {np.unravel_index(i, arr.shape)} of an array of shape " \
+                                             f"{arr.shape})"
             raise ValueError(
-                f"{key.dotted} = {_fmt(arr)} is out of range: allowed {key.range_text()} [{key.unit}]"
+                f"{key.dotted} = {float(x)!r}{where} is out of range: allowed {key.range_text()} [{key.unit}]"
             )
 
 
@@ -341,6 +355,10 @@ def validate(raw: Mapping[str, Any], where: str = "") -> dict[str, dict[str, Any
         raise ConfigError(f"{loc}a configuration must be a table of sections, got {type(raw).__name__}")
     for section, table in raw.items():
         if section not in merged:
+            homes = [k.section for k in KEYS if k.name == section]
+            if homes and not isinstance(table, Mapping):  # a key written above every section header
+                raise ConfigError(f"{loc}key {section} = {_fmt(table)} is outside any section: write it under "
+                                  f"[{homes[0]}] ({homes[0]}.{section})")
             raise ConfigError(
                 f"{loc}unknown section [{section}]; allowed: "
                 + ", ".join(f"[{s}]" for s in SECTIONS)

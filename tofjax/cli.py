@@ -21,7 +21,6 @@ import argparse
 import math
 import os
 import sys
-import time
 from importlib.metadata import entry_points
 from pathlib import Path
 
@@ -90,6 +89,42 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"tofjax: error: {message}\n")
 
 
+def check_output_file(path: Path, option: str) -> None:
+    """Before any work: make ``path``'s directory (as every command does) and prove the file can be
+    written (an existing file is opened for appending and left as it is; a new one is created and
+    removed). Raises :class:`CommandError` (exit status 2) naming ``option``."""
+    path = Path(path)
+    try:
+        if path.is_dir():
+            raise CommandError(f"{option} {path}: is a directory; give a file name", 2)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if path.exists():
+            with open(path, "ab"):
+                pass
+        else:
+            with open(path, "xb"):
+                pass
+            path.unlink()
+    except OSError as err:
+        raise CommandError(f"{option} {path}: cannot write there: {err.strerror or err}", 2) from None
+
+
+def check_output_dir(path: Path, option: str) -> None:
+    """Before any work: make directory ``path`` and prove a file can be written in it (exit 2 naming
+    ``option`` otherwise)."""
+    import tempfile
+
+    path = Path(path)
+    try:
+        if path.exists() and not path.is_dir():
+            raise CommandError(f"{option} {path}: is a file, not a directory", 2)
+        path.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=path):
+            pass
+    except OSError as err:
+        raise CommandError(f"{option} {path}: cannot write there: {err.strerror or err}", 2) from None
+
+
 def positive_int(text: str) -> int:
     """argparse type: an integer >= 1 (shared with the other packages' subcommands)."""
     try:
@@ -154,11 +189,13 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--out", type=Path, help="output CSV (tofjax-sweep format); default DIR/sweep.csv with --report")
     sim.add_argument("--report", type=Path, metavar="DIR",
                      help="also write every applicable plot as PNG and a self-contained report.html into DIR")
+    sim.add_argument("--check", action="store_true", help="validate everything, print the plan, compute nothing")
+    sim.add_argument("--quiet", action="store_true", help="no progress report")
 
     cfg = sub.add_parser("config", help="print the full default configuration with comments",
                          description="Print the full default TOML configuration, a comment on every key "
                                      "(meaning, unit, allowed range). A file may name only what it changes.")
-    cfg.add_argument("--out", type=Path, help="write to this file instead of standard output")
+    cfg.add_argument("--out", type=Path, help="write to this file instead of standard output (its directory is made)")
     for ep in sorted(entry_points(group="tofjax.commands"), key=lambda e: e.name):
         ep.load()(sub)
     return parser
@@ -177,7 +214,7 @@ def _summary(result, elapsed_s: float, out: Path) -> str:
     for i in rows:
         def cell(x, fmt):
             x = float(x)
-            return "-" if np.isnan(x) else format(x, fmt)
+            return format("-", ">" + fmt.partition(".")[0]) if np.isnan(x) else format(x, fmt)
         lines.append(
             f"{values[i] * scale:22.4g} {cell(result.depth_unwrapped_mean_m[i], '15.4f')} "
             f"{cell(1e3 * result.depth_std_m[i], '15.3f')} {cell(100 * result.depth_std_m[i] / dist[i], '13.3f')} "
@@ -187,42 +224,13 @@ def _summary(result, elapsed_s: float, out: Path) -> str:
     lines.append(f"{len(values)} samples ({method}); unambiguity range {float(result.unambiguity_range_m):.4f} m; "
                  f"{elapsed_s:.2f} s; wrote {out}")
     lines.extend(f"note: {line}" for line in result.caveat_summary())
+    du = float(result.unambiguity_range_m)
+    spacing = float(np.max(np.abs(np.diff(dist)))) if len(dist) > 1 else 0.0
+    if result.sweep_variable == "distance" and spacing > du / 2:
+        lines.append(f"note: 'depth mean' is unwrapped along the sweep, which needs sample spacing below half the "
+                     f"unambiguity range ({du / 2:.4g} m); here it is {spacing:.4g} m, so that column can be off by "
+                     f"multiples of {du:.4g} m (the CSV's depth_mean_m is the wrapped value); take more --samples")
     return "\n".join(lines)
-
-
-class _Status:
-    """A status line on stderr (elapsed seconds) for runs longer than two seconds, when stderr is a
-    terminal; the jitted sweep is one call, so it reports time rather than a fraction."""
-
-    def __init__(self, message: str):
-        self.message = message
-        self._stop = None
-
-    def __enter__(self):
-        import threading
-
-        if not sys.stderr.isatty():
-            return self
-        self._stop = threading.Event()
-        start = time.perf_counter()
-
-        def tick():
-            while not self._stop.wait(0.5):
-                elapsed = time.perf_counter() - start
-                if elapsed > 2.0:
-                    sys.stderr.write(f"\r{self.message} ... {elapsed:.1f} s")
-                    sys.stderr.flush()
-
-        self._thread = threading.Thread(target=tick, daemon=True)
-        self._thread.start()
-        return self
-
-    def __exit__(self, *exc):
-        if self._stop is not None:
-            self._stop.set()
-            self._thread.join()
-            sys.stderr.write("\r" + " " * (len(self.message) + 16) + "\r")
-            sys.stderr.flush()
 
 
 def _multifrequency_columns(mf) -> dict:
@@ -244,6 +252,20 @@ def _multifrequency_columns(mf) -> dict:
     return {k: np.asarray(v, dtype=float) for k, v in cols.items()}
 
 
+def _check_sweep_range(args) -> None:
+    """``--from`` / ``--to`` against the swept quantity's range, naming the option (before any work)."""
+    from ._config import SWEEP_RANGE_KEYS
+    from ._schema import KEY_BY_DOTTED
+
+    key = KEY_BY_DOTTED["scene." + SWEEP_RANGE_KEYS[args.sweep][0].replace("_from", "")]
+    for flag, x in (("--from", args.start), ("--to", args.stop)):
+        if x is not None and not ((x > key.lo if key.lo_open else x >= key.lo) and x <= key.hi):
+            raise _UsageError(f"{flag} = {x!r} is out of range for the {args.sweep} sweep: allowed "
+                              f"{key.range_text()} [{key.unit}]")
+    if args.start is not None and args.stop is not None and not args.start < args.stop:
+        raise _UsageError(f"--from = {args.start!r} must be less than --to = {args.stop!r}")
+
+
 def _simulate(args) -> int:
     import json
 
@@ -251,22 +273,41 @@ def _simulate(args) -> int:
 
     from ._config import Config, load_config
     from ._run import run_sweep
+    from .progress import Progress, reporting
     from .sweepfile import columns_from_result, utc_now, write_sweep
 
     if args.out is None and args.report is None:
         raise _UsageError("give --out FILE.csv, --report DIR, or both")
     out = args.out if args.out is not None else args.report / "sweep.csv"
+    _check_sweep_range(args)
     config = load_config(args.config) if args.config else Config()
     sweep = config.sweep(args.sweep, args.start, args.stop, args.samples)
     params = config.params
     iterations = args.iterations or config.iterations
     freqs = config.modulation_frequencies_hz
-    label = f"simulating {sweep.samples} samples" + (f" x {iterations} frames" if args.method == "mc" else "")
+    if len(freqs) > 1 and args.method != "mc":
+        raise _UsageError("several modulation frequencies (illumination_waveform.extra_modulation_frequencies_hz) "
+                          "need --method mc")
+    # Outputs before any work: a run must not end in "cannot write" after minutes.
+    if args.report is not None:
+        check_output_dir(args.report, "--report")
+    check_output_file(out, "--out" if args.out is not None else "--report")
+    if args.method == "mc":
+        images = sweep.samples * iterations * params.pixel.n_phases * len(freqs)
+        plan = (f"{sweep.samples} samples x {iterations} frames x {params.pixel.n_phases} phase images"
+                + (f" x {len(freqs)} frequencies" if len(freqs) > 1 else "") + f" = {images:.3g} phase images "
+                "(Monte Carlo; memory bounded by chunks)")
+    else:
+        plan = f"{sweep.samples} samples (analytic)"
+    if args.check:
+        print(f"plan: {args.sweep} sweep, {plan}; into {out}" + (f" and {args.report}" if args.report else ""))
+        return 0
     enable_compilation_cache()
-    with _Status(label):
+    label = f"simulating {sweep.samples} samples" + (f" x {iterations} frames" if args.method == "mc" else "")
+    with reporting(Progress(1, label, unit="chunk", enabled=not args.quiet)):
         # The report's scatter plots show up to 200 frames per sample; a CSV needs none.
         run = run_sweep(config, sweep, args.method, iterations, args.seed, args.fixed_pattern,
-                        keep_frames=200 if args.report is not None else 0)
+                        keep_frames=200 if args.report is not None else 0, progress=not args.quiet)
     result, multi, elapsed = run.result, run.multifrequency, run.elapsed_s
     metadata = {
         "sweep": args.sweep, "source": "simulation", "method": args.method,
@@ -281,7 +322,6 @@ def _simulate(args) -> int:
         metadata["modulation_frequencies_hz"] = ",".join(repr(float(f)) for f in freqs)
         metadata["extended_range_m"] = repr(float(multi.extended_range_m))
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
         write_sweep(out, metadata, _multifrequency_columns(multi) if multi is not None else columns_from_result(result))
     except OSError as err:
         raise _UsageError(f"cannot write {out}: {err.strerror or err}") from None
@@ -294,8 +334,9 @@ def _simulate(args) -> int:
     if args.report is not None:
         from .report import write_report
 
-        with _Status("writing the report"):
-            path = write_report(args.report, config, result, elapsed, out, multifrequency=multi)
+        if not args.quiet:
+            print("writing the report ...", file=sys.stderr, flush=True)
+        path = write_report(args.report, config, result, elapsed, out, multifrequency=multi)
         print(f"report: {path}")
     return 0
 
@@ -314,6 +355,7 @@ def main(argv: list[str] | None = None) -> int:
 
             text = default_config_text()
             if args.out:
+                check_output_file(args.out, "--out")  # makes the directory, as simulate does
                 try:
                     args.out.write_text(text, encoding="utf-8")
                 except OSError as err:

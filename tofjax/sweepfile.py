@@ -121,6 +121,11 @@ def _check_metadata(path, metadata: Mapping[str, str], lines: Mapping[str, int])
         fail("created_utc", f"created_utc = {metadata['created_utc']!r} is not an ISO 8601 time")
 
 
+#: Operating-point columns -> the configuration key whose range they share.
+_OPERATING_POINT_KEYS = {"distance_m": "scene.distance_m", "integration_time_s": "scene.integration_time_s",
+                         "illuminance_lx": "scene.illuminance_lx"}
+
+
 def _check_value(path, line: int, column: int, name: str, x: float) -> None:
     def fail(allowed):
         raise SweepFileError(path, line, column, f"column {name} = {x!r} is out of range: allowed {allowed}")
@@ -131,10 +136,14 @@ def _check_value(path, line: int, column: int, name: str, x: float) -> None:
         fail("0 <= value <= 1")
     if ("_std_" in name or name.endswith("_std")) and x < 0:
         fail("value >= 0 (a standard deviation)")
-    if name in ("distance_m", "integration_time_s") and not x > 0:
-        fail("value > 0")
-    if name == "illuminance_lx" and x < 0:
-        fail("value >= 0")
+    if name in _OPERATING_POINT_KEYS:
+        from ._schema import KEY_BY_DOTTED
+
+        key = KEY_BY_DOTTED[_OPERATING_POINT_KEYS[name]]
+        if not ((x > key.lo if key.lo_open else x >= key.lo) and x <= key.hi):
+            fail(f"{key.range_text()} [{key.unit}], as {key.dotted}")
+    if name == "amplitude_mean_lsb" and x < 0:
+        fail("value >= 0 (an amplitude)")
 
 
 def parse_sweep(text: str, path: str | os.PathLike = "<string>", *, allow_empty: bool = False) -> SweepData:
@@ -165,6 +174,10 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>", *, allow_empty:
         raise SweepFileError(path, i + 1, 1, "missing header row after the metadata")
     header_line = i + 1
     header = [h.strip() for h in lines[i].split(",")]
+    if any(_looks_numeric(h) for h in header):
+        raise SweepFileError(path, header_line, 1, "missing header row: after the metadata the first line must name "
+                                                   "the columns (" + ",".join(REQUIRED_COLUMNS[:3]) + ",...), but "
+                                                   f"this line holds numbers ({lines[i][:40]!r})")
     for j, name in enumerate(header):
         if not _KEY.match(name):
             raise SweepFileError(path, header_line, _column(lines[i], j), f"bad column name {name!r}")
@@ -208,6 +221,14 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>", *, allow_empty:
                      np.array(row_lines), {name: j + 1 for j, name in enumerate(header)})
 
 
+def _looks_numeric(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
+
+
 def _column(line: str, field: int) -> int:
     """1-based character column where CSV field ``field`` (0-based) starts."""
     cells = line.split(",")
@@ -217,12 +238,21 @@ def _column(line: str, field: int) -> int:
 def read_sweep(path: str | os.PathLike, *, allow_empty: bool = False) -> SweepData:
     """Read a sweep file; raises :class:`SweepFileError` naming file, line and column."""
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        data = Path(path).read_bytes()
     except FileNotFoundError:
         raise SweepFileError(path, None, None, "file not found") from None
+    except IsADirectoryError:
+        raise SweepFileError(path, None, None, "is a directory, not a sweep file (give the CSV files in it, e.g. "
+                                               "DIR/*.csv)") from None
+    except OSError as err:
+        raise SweepFileError(path, None, None, f"cannot read: {err.strerror or err}") from None
+    try:
+        text = data.decode("utf-8")
     except UnicodeDecodeError as err:
-        raise SweepFileError(path, None, None, f"not UTF-8 text: {err}") from None
-    return parse_sweep(text, path, allow_empty=allow_empty)
+        head = data[: err.start]
+        raise SweepFileError(path, head.count(b"\n") + 1, err.start - (head.rfind(b"\n") + 1) + 1,
+                             f"not a text file: byte 0x{data[err.start]:02x} is not UTF-8") from None
+    return parse_sweep(text.removeprefix("\ufeff"), path, allow_empty=allow_empty)  # a byte-order mark is fine
 
 
 def _format_cell(x) -> str:

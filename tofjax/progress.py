@@ -1,0 +1,132 @@
+"""Progress of long runs, with an estimate of the time left, on standard error.
+
+One reporter for every command (``simulate``'s Monte Carlo, ``calibrate``'s least squares and
+posterior, ``record``'s points): on a terminal a bar (tqdm) that shows up after the first
+:data:`QUIET_FOR_S` seconds; otherwise (a log file, CI, a pipe) one line every :data:`EVERY_S`
+seconds, ``simulating: 40 % (400/1000 chunks), 12 s elapsed, about 18 s left``, so a run that
+takes minutes is never silent and a run that takes a second prints nothing. ``enabled=False``
+(the commands' ``--quiet``) turns it off.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+
+#: A run shorter than this prints nothing.
+QUIET_FOR_S = 2.0
+#: Seconds between lines when standard error is not a terminal.
+EVERY_S = 10.0
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.1f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+class Progress:
+    """``total`` steps of ``unit`` (``initial`` already done); :meth:`update` adds steps (thread-safe:
+    a JAX host callback may call it); a context manager that finishes the bar or the lines."""
+
+    def __init__(self, total: float, desc: str, *, unit: str = "step", initial: float = 0, enabled: bool = True,
+                 stream=None, every_s: float = EVERY_S, quiet_for_s: float = QUIET_FOR_S):
+        self.total, self.desc, self.unit = float(total), desc, unit
+        self.done = float(initial)
+        self._initial = float(initial)
+        self.enabled = enabled and total > 0
+        self.stream = sys.stderr if stream is None else stream
+        self.every_s, self.quiet_for_s = every_s, quiet_for_s
+        self._start = time.monotonic()
+        self._last_line = self._start
+        self._bar = None
+        self._lock = threading.Lock()
+        self._tty = bool(getattr(self.stream, "isatty", lambda: False)())
+
+    def __enter__(self) -> Progress:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def eta_s(self) -> float | None:
+        """Seconds left at the average rate so far (``None`` before the first step)."""
+        made = self.done - self._initial
+        if made <= 0:
+            return None
+        return (time.monotonic() - self._start) / made * max(self.total - self.done, 0.0)
+
+    def line(self) -> str:
+        elapsed = time.monotonic() - self._start
+        eta = self.eta_s()
+        left = "" if eta is None else f", about {_duration(eta)} left"
+        return (f"{self.desc}: {100 * self.done / self.total:.0f} % ({self.done:g}/{self.total:g} {self.unit}s), "
+                f"{_duration(elapsed)} elapsed{left}")
+
+    def set(self, done: float) -> None:
+        """Set the steps done so far (for loops that count themselves)."""
+        self.update(done - self.done)
+
+    def update(self, n: float = 1) -> None:
+        if not self.enabled:
+            self.done += n
+            return
+        with self._lock:
+            self.done = min(self.done + n, self.total)
+            now = time.monotonic()
+            if now - self._start < self.quiet_for_s and self.done < self.total:
+                return
+            if self._tty:
+                if self._bar is None:
+                    from tqdm import tqdm
+
+                    self._bar = tqdm(total=self.total, initial=self.done, desc=self.desc, unit=self.unit,
+                                     file=self.stream, leave=False, dynamic_ncols=True)
+                else:
+                    self._bar.update(self.done - self._bar.n)
+            elif now - self._last_line >= self.every_s and now - self._start >= self.quiet_for_s:
+                self._last_line = now
+                print(self.line(), file=self.stream, flush=True)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+
+_current: Progress | None = None
+
+
+class reporting:  # noqa: N801 - used as a context manager, like a function
+    """Make ``progress`` the reporter of compiled loops' host callbacks (:func:`chunk_done`) while
+    the ``with`` block runs: ``with reporting(Progress(1, "simulating", unit="chunk")): simulate(...,
+    progress=True)``. The callbacks set its total."""
+
+    def __init__(self, progress: Progress):
+        self.progress = progress
+
+    def __enter__(self) -> Progress:
+        global _current
+        self._previous, _current = _current, self.progress
+        return self.progress
+
+    def __exit__(self, *exc) -> None:
+        global _current
+        _current = self._previous
+        self.progress.close()
+
+
+def tick(total: int) -> None:
+    """One more of ``total`` steps is done, for the reporter of :class:`reporting` (if any)."""
+    progress = _current
+    if progress is not None:
+        progress.total = float(total)
+        progress.update(1)
+
+
+def chunk_done(_dependency, total: int) -> None:
+    """Host callback of a compiled loop (its first argument only orders it after the chunk)."""
+    tick(total)
