@@ -15,7 +15,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from tofjax.schema import KEY_BY_DOTTED, suggest
+from tofjax.schema import KEY_BY_DOTTED, in_range, suggest
 
 from . import _registry as reg
 
@@ -117,11 +117,8 @@ class _Bad(Exception):
 
 def _in_range(opt: Option, x: float) -> bool:
     if opt.schema is not None:
-        k = KEY_BY_DOTTED[opt.schema]
-        lo, hi, lo_open = k.lo, k.hi, k.lo_open
-    else:
-        lo, hi, lo_open = opt.lo, opt.hi, opt.lo_open
-    return (lo is None or (x > lo if lo_open else x >= lo)) and (hi is None or x <= hi)
+        return in_range(KEY_BY_DOTTED[opt.schema], x)
+    return (opt.lo is None or (x > opt.lo if opt.lo_open else x >= opt.lo)) and (opt.hi is None or x <= opt.hi)
 
 
 def _number(value: Any, integer: bool):
@@ -276,7 +273,7 @@ def check(plan: Plan) -> None:
     key = KEY_BY_DOTTED[SWEEP_KEYS[sweep]]
     for name in ("start", "stop"):
         x = plan[name]
-        if not ((x > key.lo if key.lo_open else x >= key.lo) and x <= key.hi):
+        if not in_range(key, x):
             raise plan.fail(name, f"is out of range for the {sweep} sweep: allowed {key.range_text()} [{key.unit}]")
     if plan["samples"] > 1 and not plan["start"] < plan["stop"]:
         raise CampaignInputError(f"{plan.name('start')} = {plan['start']!r} must be less than {plan.name('stop')} = "

@@ -219,7 +219,8 @@ def _fmt(value) -> str:
         return repr(value)
 
 
-def _in_range(key: Key, x: float) -> bool:
+def in_range(key: Key, x: float) -> bool:
+    """Whether ``x`` lies in ``key``'s allowed range (NaN never does)."""
     if isinstance(x, float) and math.isnan(x):
         return False
     if key.lo is not None and (x <= key.lo if key.lo_open else x < key.lo):
@@ -279,7 +280,7 @@ def coerce(key: Key, value: Any, where: str = "") -> Any:
         else:
             raise ConfigError(bad_type)
     for x in elements:
-        if not _in_range(key, x):
+        if not in_range(key, x):
             raise ConfigError(
                 f"{loc}{key.dotted} = {_fmt(value)} is out of range: allowed {key.range_text()} [{key.unit}]"
             )
@@ -300,7 +301,7 @@ def check_array(section: str, name: str, value) -> None:
     arr = np.asarray(value, dtype=float)
     flat = arr.reshape(-1)
     for i, x in enumerate(flat):
-        if not _in_range(key, float(x)):
+        if not in_range(key, float(x)):
             # One value in the message, not the whole array (a sweep may hold a million).
             where = "" if arr.ndim == 0 else f" (element {np.unravel_index(i, arr.shape)} of an array of shape " \
                                              f"{arr.shape})"

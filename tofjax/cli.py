@@ -255,11 +255,11 @@ def _multifrequency_columns(mf) -> dict:
 def _check_sweep_range(args) -> None:
     """``--from`` / ``--to`` against the swept quantity's range, naming the option (before any work)."""
     from ._config import SWEEP_RANGE_KEYS
-    from ._schema import KEY_BY_DOTTED
+    from ._schema import KEY_BY_DOTTED, in_range
 
     key = KEY_BY_DOTTED["scene." + SWEEP_RANGE_KEYS[args.sweep][0].replace("_from", "")]
     for flag, x in (("--from", args.start), ("--to", args.stop)):
-        if x is not None and not ((x > key.lo if key.lo_open else x >= key.lo) and x <= key.hi):
+        if x is not None and not in_range(key, x):
             raise _UsageError(f"{flag} = {x!r} is out of range for the {args.sweep} sweep: allowed "
                               f"{key.range_text()} [{key.unit}]")
     if args.start is not None and args.stop is not None and not args.start < args.stop:

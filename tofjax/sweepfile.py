@@ -137,10 +137,10 @@ def _check_value(path, line: int, column: int, name: str, x: float) -> None:
     if ("_std_" in name or name.endswith("_std")) and x < 0:
         fail("value >= 0 (a standard deviation)")
     if name in _OPERATING_POINT_KEYS:
-        from ._schema import KEY_BY_DOTTED
+        from ._schema import KEY_BY_DOTTED, in_range
 
         key = KEY_BY_DOTTED[_OPERATING_POINT_KEYS[name]]
-        if not ((x > key.lo if key.lo_open else x >= key.lo) and x <= key.hi):
+        if not in_range(key, x):
             fail(f"{key.range_text()} [{key.unit}], as {key.dotted}")
     if name == "amplitude_mean_lsb" and x < 0:
         fail("value >= 0 (an amplitude)")
