@@ -42,7 +42,7 @@ def test_counts_per_mm_of_other_stages():
 
 def test_moves_outside_the_travel_are_refused_before_anything_moves():
     stage, fake = _stage()
-    with pytest.raises(ms.StageLimitError, match=r"stage position 5.0 m is outside the travel: allowed 0 <= value "
+    with pytest.raises(ms.StageLimitError, match=r"stage position 5 m is outside the travel: allowed 0 <= value "
                                                  r"<= 4.5 m; nothing moved"):
         stage.move_to(5.0)
     assert 0x0453 not in fake.received
