@@ -254,10 +254,10 @@ def _multifrequency_columns(mf) -> dict:
 
 def _check_sweep_range(args) -> None:
     """``--from`` / ``--to`` against the swept quantity's range, naming the option (before any work)."""
-    from ._config import SWEEP_RANGE_KEYS
     from ._schema import KEY_BY_DOTTED, in_range
+    from ._sweep import SCENE_FIELD
 
-    key = KEY_BY_DOTTED["scene." + SWEEP_RANGE_KEYS[args.sweep][0].replace("_from", "")]
+    key = KEY_BY_DOTTED["scene." + SCENE_FIELD[args.sweep]]
     for flag, x in (("--from", args.start), ("--to", args.stop)):
         if x is not None and not in_range(key, x):
             raise _UsageError(f"{flag} = {x!r} is out of range for the {args.sweep} sweep: allowed "
