@@ -8,10 +8,11 @@ correlations and diagnostics, PNG figures and a short Markdown report.
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -19,10 +20,11 @@ import tofjax as tj
 from tofjax.schema import get_leaf, render_toml
 from tofjax.sweepfile import utc_now
 
-from ._data import OBSERVABLES, SweepRows, load_rows
+from ._compare import FileComparison, compare_measurements, write_comparison
+from ._data import OBSERVABLES, SweepRows, load_rows, read_measurement
 from ._least_squares import LeastSquaresResult, fit_least_squares
 from ._parameters import CalibrationInputError, make_parameters
-from ._problem import Problem, batched_curves, build_problem
+from ._problem import Problem, batched_curves, build_problem, observables
 
 if TYPE_CHECKING:  # emcee (and scipy through it) are imported only when a posterior is sampled
     from ._posterior import PosteriorResult
@@ -43,6 +45,11 @@ class Calibration:
     problem: Problem
     least_squares: LeastSquaresResult
     posterior: PosteriorResult | None
+    #: Rows the fitted model could not measure (saturated or no value), left out and refitted:
+    #: ``{"file", "line", "reason"}``.
+    excluded_at_solution: list[dict] = dataclasses.field(default_factory=list)
+    #: The command line that produced it (set by the CLI).
+    command: str = ""
 
     @property
     def estimates(self) -> dict[str, float]:
@@ -58,9 +65,15 @@ class Calibration:
     def as_dict(self) -> dict:
         return {
             "software": f"tofjax {tj.__version__}", "created_utc": utc_now(),
+            "command": self.command, "configuration": self.config.values,
             "files": [{"path": r.path, "sweep": r.sweep_variable, "rows": r.n_rows,
+                       "frequencies_hz": list(r.frequencies_hz), "fusion": r.fusion,
                        "residuals": {name: int(len(r.used(name))) for name in OBSERVABLES},
-                       "excluded_rows": r.excluded} for r in self.rows],
+                       "excluded_rows": r.excluded,
+                       "left_out": {str(int(r.lines[i])) if r.lines is not None else str(i): why
+                                    for i, why in sorted(r.reasons.items())}} for r in self.rows],
+            "excluded_at_solution": self.excluded_at_solution,
+            "true_values": true_values(self),
             "least_squares": self.least_squares.as_dict(),
             "posterior": self.posterior.as_dict() if self.posterior is not None else None,
         }
@@ -77,16 +90,31 @@ class Calibration:
         json_path.write_text(json.dumps(self.as_dict(), indent=2), encoding="utf-8")
         written += [toml_path, json_path]
         written += _figures(self, out)
+        comparisons = self.comparisons()
+        for stem, which in (("compare_initial", 0), ("compare_calibrated", 1)):
+            written += write_comparison([c[which] for c in comparisons], out, stem=stem,
+                                        title=f"Measured vs model, {stem.split('_')[1]} parameters")
         report = out / "report.md"
-        report.write_text(_report(self, [p.name for p in written if p.suffix == ".png"]), encoding="utf-8")
+        report.write_text(_report(self, [p.name for p in written if p.suffix == ".png" and p.name.startswith(("fit_", "residuals", "corner"))],
+                                  comparisons), encoding="utf-8")
         written.append(report)
         return written
+
+    def comparisons(self) -> list[tuple[FileComparison, FileComparison]]:
+        """Per file, the comparison (:func:`fitting.compare`) with the initial and with the
+        calibrated parameters."""
+        before = [read_measurement(r.path, self.config) for r in self.rows]
+        calibrated = self.calibrated_config()
+        after = [read_measurement(r.path, calibrated) for r in self.rows]
+        both = compare_measurements(before + after)
+        return list(zip(both[: len(before)], both[len(before):], strict=True))
 
 
 def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, priors=None,
               relative_error: float | None = None, min_snr: float = 5.0, smooth: tj.Smooth | None = None,
               mcmc: bool = False, walkers: int = 32, steps: int = 2000, seed: int = 0, backend=None,
-              resume: bool = False, progress: bool = False, max_steps: int = 256) -> Calibration:
+              resume: bool = False, progress: bool = False, max_steps: int = 1000,
+              initial: dict[str, float] | None = None) -> Calibration:
     """Calibrate the parameters ``fit`` (dotted names) against sweep files.
 
     **Arguments:**
@@ -99,20 +127,109 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
     - ``min_snr``: rows whose measured amplitude mean / std is below it are left out.
     - ``mcmc``, ``walkers``, ``steps``, ``seed``, ``backend``, ``resume``, ``progress``: posterior
       sampling (see :func:`fitting.sample_posterior`).
-    - ``max_steps``: least-squares step limit.
+    - ``max_steps``: least-squares step limit; ``initial``: ``{name: value}`` starting values
+      (default: the configuration's).
+
+    **Validity at the solution:** the fit runs on the smooth relaxation, which has values where the
+    hard model has none. After the least squares the hard model is evaluated at the estimate on every
+    row used; rows it saturates (pixel or ADC) or cannot measure are left out, named in
+    ``Calibration.excluded_at_solution`` (file, line, reason), and the fit is repeated from the
+    estimate, up to :data:`MAX_REFITS` times. If no row is left, :class:`CalibrationInputError` names them.
+
+    An unconverged least squares still returns (``least_squares.converged`` is ``False``; no
+    posterior is sampled), so its diagnostics can be written; the CLI then exits with status 1.
     """
     config = config if config is not None else tj.Config()
     rows, parameters = check_inputs(paths, config, fit=fit, bounds=bounds, priors=priors,
-                                    relative_error=relative_error, min_snr=min_snr)
+                                    relative_error=relative_error, min_snr=min_snr, initial=initial)
     problem = build_problem(parameters, rows, smooth, relative_error)
-    ls = fit_least_squares(problem, rows, max_steps=max_steps)
+    ls = fit_least_squares(problem, rows, max_steps=max_steps, throw=False)
+    excluded: list[dict] = []
+    for _ in range(MAX_REFITS):
+        bad = invalid_at(problem, ls.estimate, rows)
+        if not bad:
+            break
+        for i, k, reason in bad:
+            r = rows[i]
+            for name in OBSERVABLES:
+                r.data[name][1][k] = False
+            r.reasons[k] = reason
+            r.excluded["at_solution"] = r.excluded.get("at_solution", 0) + 1
+            excluded.append({"file": r.path, "line": int(r.lines[k]) if r.lines is not None else k + 1, "reason": reason})
+        if sum(len(r.used(n)) for r in rows for n in OBSERVABLES) < len(parameters):
+            raise CalibrationInputError("the fitted model cannot measure the rows the fit needs: "
+                                        + "; ".join(f"{Path(e['file']).name}:{e['line']}: {e['reason']}" for e in excluded))
+        parameters = tuple(dataclasses.replace(p, initial=_inside(p, float(v)))
+                           for p, v in zip(parameters, ls.estimate, strict=True))
+        problem = build_problem(parameters, rows, smooth, relative_error)
+        ls = fit_least_squares(problem, rows, max_steps=max_steps, throw=False)
     post = None
-    if mcmc:
+    if mcmc and ls.converged:
         from ._posterior import sample_posterior
 
         post = sample_posterior(problem, ls, walkers=walkers, steps=steps, seed=seed, backend_path=backend,
                                 resume=resume, progress=progress)
-    return Calibration(config, rows, problem, ls, post)
+    return Calibration(config, rows, problem, ls, post, excluded)
+
+
+#: Refits after leaving out rows the fitted model cannot measure.
+MAX_REFITS = 3
+
+
+def _inside(p, value: float) -> float:
+    """``value`` moved strictly inside ``p``'s bounds (a refit starts where the last fit ended)."""
+    lo, hi = p.lower, p.upper
+    if lo is not None and hi is not None:
+        margin = 1e-6 * (hi - lo)
+        return min(max(value, lo + margin), hi - margin)
+    if lo is not None:
+        return max(value, lo + 1e-6 * max(abs(lo), abs(value), 1e-300))
+    return value
+
+
+def invalid_at(problem: Problem, theta, rows: list[SweepRows]) -> list[tuple[int, int, str]]:
+    """Rows used by the fit that the hard model at ``theta`` cannot measure: (file index, row,
+    reason)."""
+    out = []
+    for group in problem.groups:
+        obs = jax.device_get(_hard(problem.with_values(group.params, jnp.asarray(theta)), group.data_sweep(),
+                                   group.frequencies_hz, group.fusion))
+        for i, (lo, hi) in zip(group.files, group.bounds, strict=True):
+            r = rows[i]
+            used = np.zeros(r.n_rows, bool)
+            for name in OBSERVABLES:
+                used |= r.data[name][1]
+            pixel, adc = np.asarray(obs.pixel_saturated_fraction)[lo:hi], np.asarray(obs.adc_saturated_fraction)[lo:hi]
+            finite = np.isfinite(np.asarray(obs.depth_std_m)[lo:hi]) & np.isfinite(np.asarray(obs.amplitude_mean_lsb)[lo:hi])
+            for k in np.flatnonzero(used & ((pixel > 0) | (adc > 0) | ~finite)):
+                reason = ("the fitted model saturates the pixel here" if pixel[k] > 0 else
+                          "the fitted model saturates the ADC here" if adc[k] > 0 else
+                          "the fitted model has no value here")
+                out.append((i, int(k), reason))
+    return out
+
+
+@eqx.filter_jit
+def _hard(params: tj.Params, sweep: tj.Sweep, frequencies_hz, fusion: str):
+    return observables(params, sweep, frequencies_hz, fusion, None)
+
+
+def true_values(cal: Calibration) -> list[dict]:
+    """Fitted parameters whose true value a file states (``# true.<name>: value``, as simulated
+    examples do): estimate, truth, and the deviation in sigmas."""
+    ls = cal.least_squares
+    out = []
+    for k, name in enumerate(ls.names):
+        stated = {r.metadata.get(f"true.{name}") for r in cal.rows} - {None}
+        if len(stated) != 1:
+            continue
+        truth = float(stated.pop())
+        z = (ls.estimate[k] - truth) / ls.sigma[k] if np.isfinite(ls.sigma[k]) and ls.sigma[k] > 0 else float("nan")
+        verdict = ("consistent" if abs(z) < 2 else "in tension (2-3 sigma)" if abs(z) < 3 else "inconsistent (> 3 sigma)") \
+            if np.isfinite(z) else "undetermined"
+        out.append({"name": name, "estimate": float(ls.estimate[k]), "sigma": float(ls.sigma[k]), "true": truth,
+                    "deviation_sigma": float(z), "verdict": verdict})
+    return out
 
 
 #: Rows of all files together that one calibration evaluates at once. Peak memory grows by about
@@ -122,7 +239,7 @@ MAX_ROWS = 200_000
 
 
 def check_inputs(paths, config: tj.Config, *, fit, bounds=None, priors=None, relative_error: float | None = None,
-                 min_snr: float = 5.0):
+                 min_snr: float = 5.0, initial: dict[str, float] | None = None):
     """Read and validate the files and the names, bounds and priors (what :func:`calibrate` does
     before any computation); returns ``(rows, parameters)``."""
     if isinstance(paths, (str, Path)):
@@ -130,8 +247,12 @@ def check_inputs(paths, config: tj.Config, *, fit, bounds=None, priors=None, rel
     if not paths:
         raise ValueError("no sweep file given")
     names = [fit] if isinstance(fit, str) else list(fit)
-    initial = {name: float(get_leaf(config.params, name)) for name in names if _known(name)}
-    parameters = make_parameters(names, initial, bounds, priors)
+    starts = {name: float(get_leaf(config.params, name)) for name in names if _known(name)}
+    for name, value in (initial or {}).items():
+        if name not in names:
+            raise CalibrationInputError(f"--initial: {name} is not fitted (--fit)")
+        starts[name] = float(value)
+    parameters = make_parameters(names, starts, bounds, priors)
     rows = [load_rows(p, config, relative_error=relative_error, min_snr=min_snr) for p in paths]
     total = sum(r.n_rows for r in rows)
     if total > MAX_ROWS:
@@ -193,6 +314,15 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
             values, sigma = rows.data[name][0][idx], np.asarray(evaluated[k][1])[idx]
             scale = _SCALE[name]
             xd = dense_x * xs
+            if not np.any(np.isfinite(rows.data[name][0])):
+                ax.text(0.5, 0.9, f"{name}: not in the file (model only)", transform=ax.transAxes, ha="center",
+                        color="grey")
+            # Rows left out, greyed, one legend entry per reason.
+            for n_reason, reason in enumerate(sorted(set(rows.reasons.values()))):
+                out_idx = [j for j, why in rows.reasons.items() if why == reason and np.isfinite(rows.data[name][0][j])]
+                if out_idx:
+                    ax.plot(x_all[out_idx], rows.data[name][0][out_idx] * scale, "x", ms=5,
+                            color=("0.55", "0.35", "0.7", "0.2")[n_reason % 4], label=f"left out: {reason}")
             if lo is not None:
                 ax.fill_between(xd, lo[k] * scale, hi[k] * scale, color="C1", alpha=0.3, label="model 68 % band")
             ax.plot(xd, centre[k] * scale, color="C1", label="fitted model")
@@ -200,7 +330,8 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
             ax.set_xlabel(label)
             ax.set_ylabel(_LABEL[name])
             ax.grid(alpha=0.3)
-        axes[0].legend()
+        for ax in axes:
+            ax.legend(fontsize=7)
         fig.suptitle(Path(rows.path).name)
         path = out / f"fit_{i}_{Path(rows.path).stem}.png"
         fig.savefig(path, dpi=110)
@@ -228,7 +359,21 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
     fig.savefig(path, dpi=110)
     written.append(path)
 
-    if cal.posterior is not None and len(cal.posterior.samples) > len(cal.posterior.names):
+    if cal.posterior is not None and len(cal.posterior.names) == 1:  # corner needs two or more
+        post = cal.posterior
+        fig = Figure(figsize=(4.5, 3.4), layout="constrained")
+        ax = fig.subplots()
+        ax.hist(np.asarray(post.samples)[:, 0], bins=40, color="C0", alpha=0.7)
+        for q, style in ((post.p16[0], "--"), (post.median[0], "-"), (post.p84[0], "--")):
+            ax.axvline(q, color="k", ls=style, lw=0.8)
+        ax.axvline(cal.least_squares.estimate[0], color="C1", lw=1, label="least squares")
+        ax.set_xlabel(f"{post.names[0]} [{cal.least_squares.units[0]}]")
+        ax.set_ylabel("samples")
+        ax.legend(fontsize=8)
+        path = out / "corner.png"
+        fig.savefig(path, dpi=100)
+        written.append(path)
+    elif cal.posterior is not None and len(cal.posterior.samples) > len(cal.posterior.names):
         import corner
 
         size = 3.2 * len(cal.posterior.names)
@@ -242,20 +387,38 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
     return written
 
 
-def _report(cal: Calibration, figures: list[str]) -> str:
+def _report(cal: Calibration, figures: list[str], comparisons=()) -> str:
     ls, post = cal.least_squares, cal.posterior
-    lines = ["# Calibration report", "", f"tofjax {tj.__version__}, {utc_now()}", "", "## Data", ""]
+    lines = ["# Calibration report", "", f"tofjax {tj.__version__}, {utc_now()}", ""]
+    if cal.command:
+        lines += ["Command:", "", f"    {cal.command}", ""]
+    lines += ["## Data", ""]
     for r in cal.rows:
         used = ", ".join(f"{len(r.used(n))} {n}" for n in OBSERVABLES)
-        lines.append(f"- `{r.path}`: {r.sweep_variable} sweep, {r.n_rows} rows; residuals: {used}; left out: "
-                     f"{r.excluded['saturated']} saturated, {r.excluded['low_snr']} below the SNR limit")
+        freqs = ", ".join(f"{f / 1e6:g}" for f in r.frequencies_hz)
+        fused = f" ({r.fusion} fusion)" if len(r.frequencies_hz) > 1 else ""
+        lines.append(f"- `{r.path}`: {r.sweep_variable} sweep at {freqs} MHz{fused}, {r.n_rows} rows; residuals: "
+                     f"{used}; left out: {r.excluded['saturated']} with saturated frames, {r.excluded['low_snr']} "
+                     f"below the SNR limit, {r.excluded.get('at_solution', 0)} the fitted model cannot measure")
+        for k, why in sorted(r.reasons.items()):
+            line = int(r.lines[k]) if r.lines is not None else k + 1
+            lines.append(f"  - line {line}: {why}")
     lines += ["", "## Least squares (Levenberg-Marquardt)", "",
-              f"{'converged' if ls.converged else 'NOT CONVERGED'} after {ls.steps} steps; chi^2 = {ls.chi2:.2f} for "
+              f"{'converged' if ls.converged else 'NOT CONVERGED (the estimate below is the last iterate)'} after "
+              f"{ls.steps} steps; chi^2 = {ls.chi2:.2f} for "
               f"{ls.dof} degrees of freedom (chi^2/dof = {ls.chi2_per_dof:.3f}); condition number "
               f"{ls.condition_number:.3g}", "",
               "| parameter | unit | initial | estimate | sigma |", "|---|---|---|---|---|"]
     for n, u, i, e, s in zip(ls.names, ls.units, ls.initial, ls.estimate, ls.sigma, strict=True):
         lines.append(f"| {n} | {u} | {i:.6g} | {e:.6g} | {s:.3g} |")
+    if ls.bound_flags:
+        lines += ["", "**At or near a bound:**", ""] + [f"- {b['message']}" for b in ls.bound_flags]
+    truths = true_values(cal)
+    if truths:
+        lines += ["", "**Against the true values the files state** (simulated data):", "",
+                  "| parameter | estimate | sigma | true | (estimate - true) / sigma | verdict |", "|---|---|---|---|---|---|"]
+        lines += [f"| {t['name']} | {t['estimate']:.6g} | {t['sigma']:.3g} | {t['true']:.6g} | "
+                  f"{t['deviation_sigma']:+.2f} | {t['verdict']} |" for t in truths]
     if ls.degeneracies:
         lines += ["", "**What the data cannot separate:**", ""] + [f"- {m}" for m in ls.degeneracies]
     lines += ["", "Correlation matrix:", "", "| | " + " | ".join(n.split(".")[1] for n in ls.names) + " |",
@@ -274,7 +437,19 @@ def _report(cal: Calibration, figures: list[str]) -> str:
         for n, m, lo, hi, t in zip(post.names, post.median, post.p16, post.p84, post.autocorr_time, strict=True):
             lines.append(f"| {n} | {m:.6g} | {lo:.6g} | {hi:.6g} | {t:.1f} |")
         lines += [f"- warning: {w}" for w in post.warnings]
+    if comparisons:
+        lines += ["", "## Measured vs model, before and after", "",
+                  "Median model/measured ratio and rows within 30 % (unflagged rows; tables and figures in "
+                  "`compare_initial.*` and `compare_calibrated.*`):", "",
+                  "| file | observable | initial | calibrated |", "|---|---|---|---|"]
+        for before, after in comparisons:
+            for name in ("depth_std_m", "amplitude_mean_lsb"):
+                a, b = before.summary(name), after.summary(name)
+                if a["rows"] or b["rows"]:
+                    cell = lambda x: f"{x['median_ratio']:.3f} ({x['within']}/{x['rows']})" if x["rows"] else "-"  # noqa: E731
+                    lines.append(f"| {Path(before.path).name} | {name} | {cell(a)} | {cell(b)} |")
     lines += ["", "## Figures", ""] + [f"![{f}]({f})" for f in figures]
     lines += ["", "`calibrated.toml` is the input configuration with the least-squares estimates; use it with "
-              "`tofjax simulate --config calibrated.toml`.", ""]
+              "`tofjax simulate --config calibrated.toml`. The input configuration is in `calibration.json` "
+              "(`configuration`).", ""]
     return "\n".join(lines)

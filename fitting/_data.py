@@ -3,8 +3,13 @@
 Each file's operating points are its per-row ``distance_m``, ``illuminance_lx`` and
 ``integration_time_s`` columns. Its camera is the calibration configuration, with any metadata line
 whose key is a dotted configuration key (``# scene.reflectivity: 0.9``, ``# scene.background:
-halogen``) overriding that key for this file. The modulation frequency and number of phases in the
-metadata must match the configuration.
+halogen``) overriding that key for this file. The modulation frequencies and number of phases in the
+metadata must match the configuration: a file of one frequency against a configuration of several
+(or the reverse) is refused, never fitted as if the other frequencies did not exist. A
+multi-frequency file (format 2, ``modulation_frequencies_hz``) is modelled as its camera fused the
+frequencies (``frequency_fusion`` in the file, else the configuration's): the depth noise is the
+fused distance's, the amplitude the first frequency's. The file's ``integration_time_per`` converts
+its integration times to the model's phase images (:func:`tofjax.phase_image_time_s`).
 
 Uncertainties, from ``n_frames`` and the model's own noise prediction at the current parameters
 (so the weights do not follow the data's fluctuations; the posterior includes their
@@ -13,9 +18,12 @@ normalisation), or one relative error of every measured value when given:
 - depth standard deviation: standard error of a standard deviation of Gaussian data,
   ``sigma_depth / sqrt(2 (n_frames - 1))``.
 
-Rows that do not enter the fit, and why (counted in the diagnostics):
+Rows that do not enter the fit, and why (counted in the diagnostics, and each row's reason kept in
+``SweepRows.reasons`` for the report and the figures):
 - ``valid_fraction < 1``: some frames saturated; the statistics of the remaining frames are
-  biased, while the model's expected statistics assume no saturation;
+  biased, while the model's expected statistics assume no saturation (an absent or empty
+  ``valid_fraction`` is unknown: the row enters, and the fitted model's own validity decides,
+  :func:`fitting.calibrate`);
 - measured amplitude SNR ``amplitude_mean_lsb / amplitude_std_lsb < min_snr`` (default 5): the
   analytic model agrees with the Monte Carlo within ~1.5 % down to SNR 4 and degrades below
   (docs/model.md, "Analytic path");
@@ -51,6 +59,15 @@ class SweepRows:
     frames: np.ndarray
     excluded: dict[str, int]
     n_rows: int
+    #: Every modulation frequency of the measurement, and how the camera fused them.
+    frequencies_hz: tuple[float, ...] = ()
+    fusion: str = "inverse_variance"
+    #: Row index -> why the row does not enter the fit.
+    reasons: dict[int, str] = dataclasses.field(default_factory=dict)
+    #: 1-based line of each row in the file.
+    lines: np.ndarray | None = None
+    #: The file's metadata (``true.<key>`` values among them).
+    metadata: dict[str, str] = dataclasses.field(default_factory=dict)
 
     def used(self, name: str) -> np.ndarray:
         """Indices of the rows of observable ``name`` that enter the fit."""
@@ -89,28 +106,66 @@ def _overrides(path: str, metadata: dict[str, str], config: tj.Config) -> tj.Con
     return config
 
 
-def load_rows(path: str | Path, config: tj.Config, *, relative_error: float | None = None,
-              min_snr: float = 5.0) -> SweepRows:
-    """Read one sweep file and prepare its residual rows (see the module docstring)."""
+@dataclasses.dataclass
+class Measurement:
+    """A sweep file checked against the configuration: its data, its columns with the integration
+    times per phase image, the camera it was taken with, its operating points, its frequencies and
+    their fusion."""
+
+    path: str
+    data: sf.SweepData
+    columns: dict[str, np.ndarray]
+    config: tj.Config
+    sweep: tj.Sweep
+    frequencies_hz: tuple[float, ...]
+    fusion: str
+
+
+def read_measurement(path: str | Path, config: tj.Config) -> Measurement:
+    """Read one sweep file and check it against ``config`` (module docstring): frequencies, phases,
+    metadata overrides, exposure definition, operating points."""
     data = sf.read_sweep(path)
     path = str(path)
     meta = data.metadata
-    f_cfg = float(config.params.illumination_waveform.modulation_frequency_hz)
-    if not math.isclose(data.modulation_frequency_hz, f_cfg, rel_tol=1e-9):
+    f_cfg = config.modulation_frequencies_hz
+    f_file = data.modulation_frequencies_hz
+    if len(f_file) != len(f_cfg):
         raise CalibrationInputError(
-            f"{path}: modulation_frequency_hz = {data.modulation_frequency_hz!r} in the file, but the configuration "
-            f"has illumination_waveform.modulation_frequency_hz = {f_cfg!r}")
+            f"{path}: the file was measured at {len(f_file)} modulation frequenc{'y' if len(f_file) == 1 else 'ies'} "
+            f"({', '.join(f'{f:g}' for f in f_file)} Hz), the configuration has {len(f_cfg)} "
+            f"({', '.join(f'{f:g}' for f in f_cfg)} Hz): "
+            + ("state every frequency in the file (format tofjax-sweep/2: \"# modulation_frequencies_hz: f1, f2\") or "
+               "remove illumination_waveform.extra_modulation_frequencies_hz" if len(f_file) < len(f_cfg) else
+               "set illumination_waveform.extra_modulation_frequencies_hz to the file's further frequencies"))
+    for k, (a, b) in enumerate(zip(f_file, f_cfg, strict=True)):
+        if not math.isclose(a, b, rel_tol=1e-9):
+            key = "modulation_frequency_hz" if k == 0 else f"extra_modulation_frequencies_hz[{k - 1}]"
+            raise CalibrationInputError(f"{path}: modulation frequency {k + 1} = {a!r} Hz in the file, but the "
+                                        f"configuration has illumination_waveform.{key} = {b!r}")
     if data.n_phases != config.params.pixel.n_phases:
         raise CalibrationInputError(f"{path}: n_phases = {data.n_phases} in the file, but the configuration has "
                                     f"pixel.n_phases = {config.params.pixel.n_phases}")
     file_config = _overrides(path, meta, config)
-    cols = data.columns
+    cols = dict(data.columns)
+    per = data.integration_time_per
+    if per != "phase_image":  # the model's unit is one phase image
+        cols["integration_time_s"] = tj.phase_image_time_s(cols["integration_time_s"], per, data.n_phases, len(f_file))
     for name in ("distance_m", "illuminance_lx", "integration_time_s"):
         empty = np.isnan(cols[name])
         if np.any(empty):
             i = int(np.argmax(empty))
             raise CalibrationInputError(f"{path}:{data.lines[i]}: column {name} (field {data.fields[name]}) is empty: "
                                         "every row needs its operating point")
+    sweep = tj.Sweep.points(data.sweep, cols["distance_m"], cols["illuminance_lx"], cols["integration_time_s"])
+    fusion = meta.get("frequency_fusion", config.values["illumination_waveform"]["frequency_fusion"])
+    return Measurement(path, data, cols, file_config, sweep, tuple(f_file), fusion)
+
+
+def load_rows(path: str | Path, config: tj.Config, *, relative_error: float | None = None,
+              min_snr: float = 5.0) -> SweepRows:
+    """Read one sweep file and prepare its residual rows (see the module docstring)."""
+    m = read_measurement(path, config)
+    path, data, cols, file_config = m.path, m.data, m.columns, m.config
     frames = cols["n_frames"]
     if relative_error is None and np.any(frames < 2):
         i = int(np.argmax(frames < 2))
@@ -123,12 +178,16 @@ def load_rows(path: str | Path, config: tj.Config, *, relative_error: float | No
         raise CalibrationInputError(f"{path}: the configuration has pixel.noise = false, so the model predicts no "
                                     "noise and cannot weight the rows; enable noise or give --relative-error")
 
-    valid = cols["valid_fraction"] >= 1.0
+    valid = ~(cols["valid_fraction"] < 1.0)  # empty: unknown, kept (the fitted model decides)
     amp, amp_std = cols["amplitude_mean_lsb"], cols["amplitude_std_lsb"]
     with np.errstate(divide="ignore", invalid="ignore"):
         snr = amp / amp_std
     low_snr = valid & (snr < min_snr)  # NaN (not measured) compares False: kept
     keep = valid & ~low_snr
+    reasons = {int(i): f"{cols['valid_fraction'][i]:.3g} of its frames valid (the rest saturated)"
+               for i in np.flatnonzero(~valid)}
+    reasons.update({int(i): f"measured amplitude SNR {snr[i]:.3g} below the limit {min_snr:g} (--min-snr)"
+                    for i in np.flatnonzero(low_snr)})
     out, excluded = {}, {"saturated": int(np.sum(~valid)), "low_snr": int(np.sum(low_snr))}
     for name in OBSERVABLES:
         values = cols[name]
@@ -149,5 +208,5 @@ def load_rows(path: str | Path, config: tj.Config, *, relative_error: float | No
     if sum(int(np.sum(v[1])) for v in out.values()) == 0:
         raise CalibrationInputError(f"{path}: no row enters the fit ({excluded['saturated']} saturated, "
                                     f"{excluded['low_snr']} below the amplitude SNR {min_snr:g}, the rest not measured)")
-    sweep = tj.Sweep.points(data.sweep, cols["distance_m"], cols["illuminance_lx"], cols["integration_time_s"])
-    return SweepRows(path, data.sweep, file_config, sweep, out, frames, excluded, data.n_rows)
+    return SweepRows(path, data.sweep, file_config, m.sweep, out, frames, excluded, data.n_rows, m.frequencies_hz,
+                     m.fusion, reasons, data.lines, dict(data.metadata))

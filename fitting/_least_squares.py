@@ -62,6 +62,8 @@ class LeastSquaresResult:
     condition_number: float
     degeneracies: list[str]
     residual_summary: list[dict]
+    #: Parameters at or near a bound: {name, bound, value, distance_sigma, message}.
+    bound_flags: list[dict] = dataclasses.field(default_factory=list)
     #: The problem's linearisation at the estimate (model values, dense curves and their Jacobians).
     linearization: Linearization | None = None
 
@@ -88,7 +90,7 @@ class LeastSquaresResult:
             "chi2": self.chi2, "dof": self.dof, "chi2_per_dof": num(self.chi2_per_dof),
             "converged": self.converged, "steps": self.steps, "solver_result": self.solver_message,
             "condition_number": num(self.condition_number), "degeneracies": self.degeneracies,
-            "residuals": self.residual_summary,
+            "residuals": self.residual_summary, "at_bounds": self.bound_flags,
         }
 
 
@@ -190,16 +192,61 @@ def fit_least_squares(problem: Problem, rows, *, max_steps: int = 256, rtol: flo
     for i, j in itertools.combinations(range(n_params), 2):
         if np.isfinite(corr[i, j]) and abs(corr[i, j]) > CORRELATION_LIMIT:
             messages.append(f"{names[i]} and {names[j]} are strongly correlated (correlation {corr[i, j]:+.3f}): "
-                            f"{_explain(names[i], names[j])}; their individual sigmas are large")
+                            f"{_explain(names[i], names[j])}; {_product_note(theta, cov, i, j)}")
     with np.errstate(invalid="ignore", divide="ignore"):
         cov_u = cov / np.outer(dtheta, dtheta)
+    flags = bound_flags(problem, np.asarray(theta), np.sqrt(np.diag(cov)))
     return LeastSquaresResult(
         names=names, units=problem.units, initial=np.asarray(problem.initial), estimate=np.asarray(theta),
         sigma=np.sqrt(np.diag(cov)), covariance=cov, correlation=corr, unconstrained=np.asarray(u),
         unconstrained_covariance=cov_u, chi2=float(np.sum(r**2)), dof=dof, converged=converged, steps=steps,
         solver_message=message, condition_number=condition, degeneracies=messages,
-        residual_summary=_summaries(lin.evaluated, rows), linearization=lin,
+        residual_summary=_summaries(lin.evaluated, rows), bound_flags=flags, linearization=lin,
     )
+
+
+#: A parameter closer to a bound than this fraction of its bounded interval (or of its value, when
+#: bounded on one side) is *at* the bound.
+AT_BOUND = 1e-3
+
+
+def bound_flags(problem: Problem, theta: np.ndarray, sigma: np.ndarray) -> list[dict]:
+    """Parameters at a bound (the optimum lies outside or on it: the estimate and its sigma do
+    not describe the data's preference) or within 2 sigma of one (the Gaussian uncertainty crosses
+    it)."""
+    out = []
+    lower, upper = np.asarray(problem.lower), np.asarray(problem.upper)
+    for k, (name, kind) in enumerate(zip(problem.names, problem.kinds, strict=True)):
+        sides = {"both": ("lower", "upper"), "lower": ("lower",)}.get(kind, ())
+        for side in sides:
+            bound = lower[k] if side == "lower" else upper[k]
+            span = (upper[k] - lower[k]) if kind == "both" else max(abs(theta[k]), abs(bound), 1e-300)
+            gap = abs(theta[k] - bound)
+            if gap <= AT_BOUND * span:
+                message = (f"{name} = {theta[k]:.6g} is at its {side} bound {bound:g}: the data push it there, so "
+                           "its estimate and sigma are not a measurement; widen the bound (--bounds) if that is "
+                           "physical, or the model lacks what the data show")
+            elif np.isfinite(sigma[k]) and gap < 2.0 * sigma[k]:
+                message = (f"{name} = {theta[k]:.6g} is within {gap / sigma[k]:.2g} sigma of its {side} bound {bound:g}: "
+                           "its uncertainty is not Gaussian there (the posterior, --mcmc, describes it)")
+            else:
+                continue
+            out.append({"name": name, "bound": side, "bound_value": float(bound), "value": float(theta[k]),
+                        "distance_sigma": float(gap / sigma[k]) if np.isfinite(sigma[k]) and sigma[k] > 0 else None,
+                        "message": message})
+    return out
+
+
+def _product_note(theta: np.ndarray, cov: np.ndarray, i: int, j: int) -> str:
+    """The relative sigmas of two correlated parameters and of their product (what the data fix)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ri, rj = np.sqrt(cov[i, i]) / abs(theta[i]), np.sqrt(cov[j, j]) / abs(theta[j])
+        rho = cov[i, j] / np.sqrt(cov[i, i] * cov[j, j])
+        product = np.sqrt(max(ri**2 + rj**2 + 2 * rho * ri * rj, 0.0))
+    if not (np.isfinite(ri) and np.isfinite(rj)):
+        return "one of them is undetermined"
+    return (f"their relative sigmas ({100 * ri:.2g} % and {100 * rj:.2g} %) are mostly this trade-off; their product "
+            f"is known to {100 * product:.2g} %")
 
 
 def _residual_function(problem: Problem, max_steps: int):

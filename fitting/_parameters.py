@@ -128,7 +128,9 @@ def make_parameters(
         initial = float(initial_values[name])
         if (lo is not None and not initial > lo) or (hi is not None and not initial < hi):
             raise CalibrationInputError(
-                f"initial value of {name} = {initial!r} is not strictly inside its bounds [{lo!r}, {hi!r}]")
+                f"initial value of {name} = {initial!r} is not strictly inside its bounds [{lo!r}, {hi!r}]: give a "
+                f"starting value with --initial {name}=VALUE (or set it in the configuration)"
+                + (" (0 there means 'not given': pick a data sheet's value)" if initial == 0 else ""))
         prior = priors.get(name)
         if prior is not None and not (math.isfinite(prior[0]) and prior[1] > 0 and math.isfinite(prior[1])):
             raise CalibrationInputError(f"prior of {name} = {prior!r} needs a finite mean and a sigma > 0")

@@ -43,18 +43,56 @@ def dense_sweep(rows: SweepRows, n: int = DENSE_POINTS) -> dict[str, np.ndarray]
     return {name: np.interp(grid, x, np.asarray(getattr(s, name))[order]) for name in _OPERATING_POINT}
 
 
+class Observables(eqx.Module):
+    """What a sweep file's camera reports, predicted: amplitude mean and standard deviation (of the
+    first frequency), the depth mean (with wiggling; wrapped into the unambiguity range, or fused
+    and unwrapped over the extended range for several frequencies)
+    and standard deviation (fused), and whether the hard model can measure the point (with a smooth
+    relaxation: the relaxed statistics, and ``valid`` from the relaxed flags)."""
+
+    amplitude_mean_lsb: Array
+    amplitude_std_lsb: Array
+    depth_mean_m: Array
+    depth_std_m: Array
+    valid_fraction: Array
+    pixel_saturated_fraction: Array
+    adc_saturated_fraction: Array
+    caveats: Array  # tofjax.CAVEATS bits (of any frequency)
+
+
+def observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str,
+                smooth: tj.Smooth | None) -> Observables:
+    """:class:`Observables` of one camera: :func:`tofjax.predict`, or
+    :func:`tofjax.predict_multifrequency` for several frequencies (its fused depth noise)."""
+    if len(frequencies_hz) < 2:
+        r = tj.predict(params, sweep, smooth=smooth)
+        return Observables(r.amplitude_mean_lsb, r.amplitude_std_lsb, r.depth_mean_m, r.depth_std_m,
+                           r.valid_fraction, r.pixel_saturated_fraction, r.adc_saturated_fraction, r.caveats)
+    m = tj.predict_multifrequency(params, sweep, frequencies_hz, fusion=fusion, smooth=smooth)
+    p = m.per_frequency
+    caveats = p.caveats[0]
+    for k in range(1, len(frequencies_hz)):
+        caveats = caveats | p.caveats[k]
+    return Observables(p.amplitude_mean_lsb[0], p.amplitude_std_lsb[0], m.depth_mean_m, m.depth_std_m,
+                       m.valid_fraction, jnp.max(p.pixel_saturated_fraction, axis=0),
+                       jnp.max(p.adc_saturated_fraction, axis=0), caveats)
+
+
 class FileGroup(eqx.Module):
     """Files taken with one camera, their rows concatenated.
 
     ``files`` (static) are the files' indices in the problem and ``bounds`` their row ranges in the
     group; ``params`` the camera; ``sweep`` the concatenated operating points, the data rows first
     (``n_data`` of them), then :data:`DENSE_POINTS` dense points per file; ``values`` and ``masks``
-    per observable, and ``frames``, over the data rows.
+    per observable, and ``frames``, over the data rows; ``frequencies_hz`` and ``fusion`` the
+    files' modulation frequencies and how their camera fused them (static).
     """
 
     files: tuple[int, ...] = eqx.field(static=True)
     bounds: tuple[tuple[int, int], ...] = eqx.field(static=True)
     n_data: int = eqx.field(static=True)
+    frequencies_hz: tuple[float, ...] = eqx.field(static=True)
+    fusion: str = eqx.field(static=True)
     params: tj.Params
     sweep: tj.Sweep
     values: tuple[Array, ...]
@@ -75,7 +113,8 @@ def _groups(rows: list[SweepRows]) -> tuple[FileGroup, ...]:
     members: list[list[int]] = []
     for i, r in enumerate(rows):
         for group in members:
-            if _same_camera(rows[group[0]].params, r.params):
+            first = rows[group[0]]
+            if (first.frequencies_hz, first.fusion) == (r.frequencies_hz, r.fusion) and _same_camera(first.params, r.params):
                 group.append(i)
                 break
         else:
@@ -89,7 +128,9 @@ def _groups(rows: list[SweepRows]) -> tuple[FileGroup, ...]:
         ends = np.cumsum([rows[i].n_rows for i in group])
         groups.append(FileGroup(
             files=tuple(group), bounds=tuple((int(e - rows[i].n_rows), int(e)) for i, e in zip(group, ends, strict=True)),
-            n_data=int(ends[-1]), params=rows[group[0]].params,
+            n_data=int(ends[-1]), frequencies_hz=tuple(rows[group[0]].frequencies_hz) or (
+                float(rows[group[0]].params.illumination_waveform.modulation_frequency_hz),),
+            fusion=rows[group[0]].fusion, params=rows[group[0]].params,
             # The swept variable only names the rows' order; the concatenated rows are operating points.
             sweep=tj.Sweep.points("distance", **columns),
             values=tuple(cat([np.where(rows[i].data[o][1], rows[i].data[o][0], 0.0) for i in group]) for o in OBSERVABLES),
@@ -173,13 +214,13 @@ class Problem(eqx.Module):
         """``base`` with the free parameters set to ``theta``."""
         return set_leaves(base, {name: theta[i] for i, name in enumerate(self.names)})
 
-    def predict_group(self, theta: Float[Array, " params"], group: FileGroup, *, dense: bool = True) -> tj.Result:
+    def predict_group(self, theta: Float[Array, " params"], group: FileGroup, *, dense: bool = True) -> Observables:
         """The model of ``group``'s camera at ``theta`` (smooth mode) on its data rows, and with
         ``dense`` also on its dense points (after the data rows)."""
         sweep = group.sweep if dense else group.data_sweep()
-        return tj.predict(self.with_values(group.params, theta), sweep, smooth=self.smooth)
+        return observables(self.with_values(group.params, theta), sweep, group.frequencies_hz, group.fusion, self.smooth)
 
-    def _rows(self, r: tj.Result, group: FileGroup):
+    def _rows(self, r: Observables, group: FileGroup):
         """Per observable, (model, uncertainty) on the data rows of a group's result."""
         n = group.frames
         amp_std, depth_std = r.amplitude_std_lsb[: group.n_data], r.depth_std_m[: group.n_data]

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import argparse
 import math
+import shlex
+import sys
 import warnings
 from pathlib import Path
 
@@ -23,6 +25,17 @@ def _pair(text: str) -> tuple[str, tuple[float, float]]:
     return name.strip(), values
 
 
+def _value(text: str) -> tuple[str, float]:
+    name, sep, rest = text.partition("=")
+    try:
+        value = float(rest)
+    except ValueError:
+        value = math.nan
+    if not sep or not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} is not NAME=VALUE with a finite number")
+    return name.strip(), value
+
+
 def register(subparsers) -> None:
     p = subparsers.add_parser(
         "calibrate", help="fit sensor parameters to measured sweeps (least squares, optional emcee posterior)",
@@ -37,11 +50,13 @@ def register(subparsers) -> None:
                    help="bounds of a fitted parameter (default: its configuration range); repeatable")
     p.add_argument("--prior", type=_pair, action="append", default=[], metavar="NAME=MEAN:SIGMA",
                    help="Gaussian prior of a fitted parameter for --mcmc (default: uniform within bounds)")
+    p.add_argument("--initial", type=_value, action="append", default=[], metavar="NAME=VALUE",
+                   help="starting value of a fitted parameter (default: the configuration's); repeatable")
     p.add_argument("--relative-error", type=positive_float,
                    help="use this fraction of each value as its uncertainty instead of deriving it from n_frames")
     p.add_argument("--min-snr", type=positive_float, default=5.0,
                    help="leave out rows whose amplitude mean/std is below this (default 5)")
-    p.add_argument("--max-steps", type=positive_int, default=256, help="least-squares step limit (default 256)")
+    p.add_argument("--max-steps", type=positive_int, default=1000, help="least-squares step limit (default 1000)")
     p.add_argument("--mcmc", action="store_true", help="sample the posterior with emcee after the least squares")
     p.add_argument("--walkers", type=positive_int, default=32, help="emcee walkers (default 32)")
     p.add_argument("--steps", type=positive_int, default=2000, help="emcee steps (default 2000)")
@@ -86,7 +101,7 @@ def run(args) -> int:
     if args.check:
         rows, parameters = check_inputs(args.sweeps, config, fit=names, bounds=dict(args.bounds),
                                         priors=dict(args.prior), relative_error=args.relative_error,
-                                        min_snr=args.min_snr)
+                                        min_snr=args.min_snr, initial=dict(args.initial))
         used = sum(len(r.used(o)) for r in rows for o in r.data)
         print(f"plan: fit {', '.join(p.name for p in parameters)} to {used} measured values in {len(rows)} file(s); "
               f"into {args.out}")
@@ -101,15 +116,23 @@ def run(args) -> int:
                 cal = calibrate(args.sweeps, config, fit=names, bounds=dict(args.bounds), priors=dict(args.prior),
                                 relative_error=args.relative_error, min_snr=args.min_snr, mcmc=args.mcmc,
                                 walkers=args.walkers, steps=args.steps, seed=args.seed, backend=args.backend,
-                                resume=args.resume, progress=args.mcmc and not args.quiet, max_steps=args.max_steps)
+                                resume=args.resume, progress=args.mcmc and not args.quiet, max_steps=args.max_steps,
+                                initial=dict(args.initial))
     except ConvergenceError as err:  # name the option, not the API argument
         raise CommandError(str(err).replace("`max_steps`", f"--max-steps (now {args.max_steps})"), 1) from None
+    cal.command = " ".join(["tofjax", *map(shlex.quote, sys.argv[1:])]) if sys.argv[1:2] == ["calibrate"] else ""
     try:
         written = cal.write(args.out)
     except OSError as err:
         raise CommandError(f"cannot write {args.out}: {err.strerror or err}", 2) from None
     ls = cal.least_squares
     width = max(len(n) for n in ls.names)
+    for e in cal.excluded_at_solution:
+        print(f"left out {e['file']}:{e['line']}: {e['reason']} (refitted without it)")
+    if not ls.converged:
+        raise CommandError(f"least squares did not converge after {ls.steps} steps (--max-steps {args.max_steps}): "
+                           f"{ls.solver_message}; the last iterate, residuals and figures are in {args.out} "
+                           f"(report.md); raise --max-steps, start closer (--initial) or fit fewer parameters", 1)
     print(f"least squares: converged in {ls.steps} steps, chi^2/dof = {ls.chi2_per_dof:.3f} ({ls.dof} dof)")
     for n, u, e, s in zip(ls.names, ls.units, ls.estimate, ls.sigma, strict=True):
         line = f"  {n:<{width}} = {e:.6g} +- {s:.3g} {u}"
@@ -118,6 +141,8 @@ def run(args) -> int:
             post = cal.posterior
             line += f"   posterior {post.median[k]:.6g} [{post.p16[k]:.6g}, {post.p84[k]:.6g}]"
         print(line)
+    for flag in ls.bound_flags:
+        print(f"warning: {flag['message']}")
     for message in ls.degeneracies:
         print(f"note: {message}")
     if cal.posterior is not None:

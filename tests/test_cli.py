@@ -88,7 +88,7 @@ def test_no_traceback_from_the_installed_entry_point(tmp_path):
     assert not (tmp_path / "x.csv").exists()
 
 
-def test_run_sweep_refuses_unknown_methods_and_analytic_range_extension():
+def test_run_sweep_refuses_unknown_methods_and_fuses_frequencies_analytically():
     from tofjax._run import run_sweep
 
     config = tj.Config()
@@ -96,7 +96,8 @@ def test_run_sweep_refuses_unknown_methods_and_analytic_range_extension():
     with pytest.raises(ValueError, match="method = 'fast' is not allowed"):
         run_sweep(config, sweep, "fast")
     dual = config.replace("illumination_waveform.extra_modulation_frequencies_hz", [60.24e6])
-    with pytest.raises(ValueError, match="need the Monte Carlo method"):
-        run_sweep(dual, sweep, "analytic")
+    fused = run_sweep(dual, sweep, "analytic").multifrequency  # analytic fusion of both frequencies
+    per = np.asarray(fused.per_frequency.depth_std_m)
+    np.testing.assert_allclose(np.asarray(fused.depth_std_m), (per[0] ** -2 + per[1] ** -2) ** -0.5, rtol=1e-12)
     run = run_sweep(config, sweep, "analytic")
     assert run.result.method == "analytic" and run.multifrequency is None and run.elapsed_s > 0

@@ -186,10 +186,11 @@ def test_calculate_runs_the_sweep_with_busy_lamp_time_and_the_ticked_plots():
     ex.plot_checkboxes["wiggling"].value = True
     ex.calculate()
     assert ex.run.result.method == "analytic" and "wiggling" in ex.figures
-    # Several frequencies need frames: the analytic choice is explained, not raised.
+    # Several frequencies, analytically: the fused noise (no wrong-unwrap fraction).
     _set(ex, "illumination_waveform.extra_modulation_frequencies_hz", "60.24e6")
     ex.calculate()
-    assert "need the Monte Carlo method" in ex.message.value and "ready" in ex.lamp.value
+    assert ex.message.value == "" and ex.run.multifrequency.fusion == "inverse_variance"
+    assert np.all(np.isnan(ex.run.multifrequency.wrong_unwrap_fraction))
     ex.method.value = "mc"
     ex.calculate()
     assert "multifrequency_distance" in ex.figures and ex.run.multifrequency is not None

@@ -98,8 +98,9 @@ def _edit(tmp_path, source, replace=None, drop_meta=None, name="edited.csv"):
 
 def test_mismatched_files_and_bad_cells_name_file_line_and_column(tmp_path, config):
     f_mod = _edit(tmp_path, FILES[0], ("# modulation_frequency_hz: 80320000.0", "# modulation_frequency_hz: 60240000.0"))
-    with pytest.raises(ft.CalibrationInputError, match=r"edited.csv: modulation_frequency_hz = 60240000.0 in the "
-                                                       r"file, but the configuration has"):
+    with pytest.raises(ft.CalibrationInputError, match=r"edited.csv: modulation frequency 1 = 60240000.0 Hz in the "
+                                                       r"file, but the configuration has illumination_waveform."
+                                                       r"modulation_frequency_hz = 80320000.0"):
         ft.calibrate([f_mod], config, fit=NAMES)
     phases = _edit(tmp_path, FILES[0], ("# n_phases: 4", "# n_phases: 3"))
     with pytest.raises(ft.CalibrationInputError, match="n_phases = 3 in the file"):
@@ -209,8 +210,10 @@ def test_posterior_backend_resumes(example_fit, tmp_path):
 
 
 def test_unconverged_fit_is_never_silent(config):
+    cal = ft.calibrate(FILES, config, fit=NAMES, max_steps=2)  # returned for its diagnostics
+    assert not cal.least_squares.converged and cal.least_squares.steps == 2
     with pytest.raises(ft.ConvergenceError, match="did not converge after 2 steps"):
-        ft.calibrate(FILES, config, fit=NAMES, max_steps=2)
+        ft.fit_least_squares(cal.problem, cal.rows, max_steps=2)
 
 
 def test_calibrate_command_writes_everything(tmp_path, capsys):

@@ -32,6 +32,8 @@ _EXPORTS = {
     "CAVEAT_LOW_SNR": "_result", "NoiseBreakdown": "_result", "Result": "_result",
     "MultiFrequencyResult": "_multifrequency", "extended_range_m": "_multifrequency",
     "simulate_multifrequency": "_multifrequency", "unwrap_frequencies": "_multifrequency",
+    "predict_multifrequency": "_multifrequency", "fused_std": "_multifrequency", "fusion_weights": "_multifrequency",
+    "phase_image_time_s": "_exposure", "phase_images_per_count": "_exposure",
     "lens": "_optics", "spot_area_m2": "_optics",
     "ADC": "_params", "AbstractWaveform": "_params", "Camera": "_params", "Illumination": "_params",
     "IlluminationWaveform": "_params", "Params": "_params", "PhysicalConstants": "_params", "Pixel": "_params",
@@ -89,7 +91,9 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from ._leaves import get_leaf, set_leaves  # noqa: F401
     from ._montecarlo import simulate  # noqa: F401
     from ._multifrequency import (  # noqa: F401
-        MultiFrequencyResult, extended_range_m, simulate_multifrequency, unwrap_frequencies)
+        MultiFrequencyResult, extended_range_m, fused_std, fusion_weights, predict_multifrequency,
+        simulate_multifrequency, unwrap_frequencies)
+    from ._exposure import phase_image_time_s, phase_images_per_count  # noqa: F401
     from ._noise import NOISE_SOURCES, AbstractNoiseSource, NoiseBudget  # noqa: F401
     from ._optics import lens, spot_area_m2  # noqa: F401
     from ._params import (  # noqa: F401

@@ -13,7 +13,13 @@ Spectra (files in ``tofjax/data`` with their provenance):
 - halogen: Planck radiator at 3200 K (tungsten-halogen lamps run at 3000-3200 K; 3200 K is the
   photographic/studio standard);
 - incandescent: Planck radiator at 2856 K (CIE standard illuminant A);
-- fluorescent: CIE FL2 (cool white), tabulated 380-780 nm.
+- fluorescent: CIE FL2 (cool white), tabulated 380-780 nm;
+- led: CIE LED-B3 (phosphor-converted white LED, about 4100 K, CIE 015:2018), tabulated 380-780 nm
+  and continued beyond 780 nm by the exponential decay of its last 40 nm (the phosphor's red tail;
+  a white LED emits no line in the near infrared, so at 850 nm this tail is all there is).
+
+A mixture of sources (``scene.extra_backgrounds``) adds the photon irradiances of the sources,
+each normalised to its own illuminance (:func:`tofjax._mixer.expose`).
 """
 
 from __future__ import annotations
@@ -60,18 +66,35 @@ def spectrum(background: str) -> tuple[np.ndarray, np.ndarray]:
         return _GRID_M, _on_grid(*_read_table("astm_g173_global_tilt.csv"))
     if background == "fluorescent":
         return _GRID_M, _on_grid(*_read_table("cie_fl2.csv"))
+    if background == "led":
+        return _GRID_M, _exponential_tail(*_read_table("cie_led_b3.csv"))
     if background == "halogen":
         return _GRID_M, _planck(_GRID_M, HALOGEN_TEMPERATURE_K)
     if background == "incandescent":
         return _GRID_M, _planck(_GRID_M, INCANDESCENT_TEMPERATURE_K)
     raise ValueError(f"scene.background = {background!r} is not allowed: expected one of "
-                     '"sunlight", "halogen", "incandescent", "fluorescent"')
+                     '"sunlight", "halogen", "incandescent", "fluorescent", "led"')
 
 
 @functools.cache
 def photopic_v() -> tuple[np.ndarray, np.ndarray]:
     """CIE 1924 photopic V(lambda) on the common grid."""
     return _GRID_M, _on_grid(*_read_table("cie_1924_photopic_v.csv"))
+
+
+#: Tabulated wavelengths whose log-linear fit continues a table beyond its last value.
+_TAIL_FIT_M = 40e-9
+
+
+def _exponential_tail(wavelength_m: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """A table on the common grid, continued beyond its last wavelength by the exponential decay
+    fitted (least squares in log) to its last 40 nm."""
+    fit = wavelength_m >= wavelength_m[-1] - _TAIL_FIT_M
+    slope, intercept = np.polyfit(wavelength_m[fit], np.log(values[fit]), 1)
+    out = _on_grid(wavelength_m, values)
+    beyond = _GRID_M > wavelength_m[-1]
+    out[beyond] = np.exp(intercept + slope * _GRID_M[beyond]) if slope < 0 else 0.0
+    return out
 
 
 def _cumtrapz(y: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -106,7 +129,7 @@ def background_photon_irradiance(
     """Detectable in-band background photon irradiance on the target, photons / (s m^2).
 
     **Arguments:**
-    - ``background``: lamp name (sunlight, halogen, incandescent, fluorescent).
+    - ``background``: lamp name (sunlight, halogen, incandescent, fluorescent, led).
     - ``illuminance_lx``: illuminance on the target, lx.
     - ``wavelength_m``, ``filter_half_width_m``: the band-pass filter (half width 0 = no filter).
     - ``constants``: physical constants (K_m, h, c).

@@ -74,7 +74,7 @@ def build_chain(params: Params, smooth: Smooth | None = None, points: int | None
     evaluated (a table, or the series for a few points; ``None``: a table)."""
     per_volt = electrons_per_volt(params)
     pixel = params.pixel
-    well = full_well_e(pixel.v_reset_v, pixel.v_saturated_v, per_volt)
+    well = full_well_e(pixel.v_reset_v, pixel.v_saturated_v, per_volt, pixel.full_well_e)
     temperature_e = None if smooth is None else smooth.saturation_temperature_v * per_volt
     limit = limit_stage(well, pixel.sbi, temperature_e)
     readout = Readout(params.adc, per_volt, None if smooth is None else smooth.adc_temperature_lsb)

@@ -15,6 +15,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from ._exposure import phase_images_per_count
 from ._params import SECTION_CLASSES, Params
 from ._schema import SECTIONS, ConfigError, defaults, keys_of, suggest, validate
 from ._sweep import Sweep
@@ -38,12 +39,27 @@ class Config:
 
     @property
     def params(self) -> Params:
-        """The parameter pytree (:class:`tofjax.Params`)."""
+        """The parameter pytree (:class:`tofjax.Params`). Integration times are per phase image
+        there: a configuration that counts them per frequency or per frame
+        (``scene.integration_time_per``) is converted (:meth:`phase_image_time_s`)."""
         parts = {}
         for section, cls in SECTION_CLASSES.items():
             names = {f.name for f in dataclasses.fields(cls)}
             parts[section] = cls(**{k: v for k, v in self.values[section].items() if k in names})
+        t = self.values["scene"]["integration_time_s"]
+        if self.phase_images_per_integration_time != 1:
+            parts["scene"] = dataclasses.replace(parts["scene"], integration_time_s=self.phase_image_time_s(t))
         return Params(**parts)
+
+    @property
+    def phase_images_per_integration_time(self) -> int:
+        """Phase images one configured integration time covers (``scene.integration_time_per``)."""
+        return phase_images_per_count(self.values["scene"]["integration_time_per"],
+                                      self.values["pixel"]["n_phases"], len(self.modulation_frequencies_hz))
+
+    def phase_image_time_s(self, integration_time_s):
+        """A configured integration time (as ``scene.integration_time_per`` counts it) per phase image."""
+        return integration_time_s / self.phase_images_per_integration_time
 
     @property
     def modulation_frequencies_hz(self) -> list[float]:
@@ -67,6 +83,8 @@ class Config:
         start = scene[lo_key] if start is None else start
         stop = scene[hi_key] if stop is None else stop
         samples = scene["samples"] if samples is None else samples
+        if variable == "integration_time":  # the model's unit: one phase image
+            start, stop = self.phase_image_time_s(start), self.phase_image_time_s(stop)
         return Sweep.linspace(variable, start, stop, samples)
 
     def replace(self, dotted: str, value: Any) -> Config:

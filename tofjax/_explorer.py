@@ -87,6 +87,8 @@ class _Field:
         elif key.kind == "float_list":
             self.inputs = [w.Text(value=", ".join(repr(v) for v in value), placeholder="empty, or e.g. 60.24e6",
                                   layout=_wide(), **common)]
+        elif key.kind == "choice_list":
+            self.inputs = [w.Text(value=", ".join(value), placeholder="empty, or e.g. led", layout=_wide(), **common)]
         elif key.kind == "pair":
             self.inputs = [w.FloatText(value=value[0], layout=_wide(), **{**common, "description": key.name + " x"}),
                            w.FloatText(value=value[1], layout=_narrow(), description="y", style={"description_width": "15px"})]
@@ -110,6 +112,8 @@ class _Field:
 
     def value(self) -> Any:
         """The value the inputs hold, in configuration form; :class:`ConfigError` if text does not parse."""
+        if self.key.kind == "choice_list":  # names, checked by the schema
+            return [part.strip().strip("'\"") for part in self.inputs[0].value.strip("[] ").split(",") if part.strip()]
         if self.key.kind == "float_list":
             text = self.inputs[0].value.strip().strip("[]")
             try:
@@ -125,7 +129,9 @@ class _Field:
         return self.inputs[0].value
 
     def set_value(self, value: Any) -> None:
-        if self.key.kind == "float_list":
+        if self.key.kind == "choice_list":
+            self.inputs[0].value = ", ".join(value)
+        elif self.key.kind == "float_list":
             self.inputs[0].value = ", ".join(repr(v) for v in value)
         elif self.key.kind == "pair":
             self.inputs[0].value, self.inputs[1].value = value

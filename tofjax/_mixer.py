@@ -74,6 +74,9 @@ def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*
     active = active_electrons(params, distance_m, integration_time_s, waveform_mean(params.illumination_waveform))
     photon_irr = background_photon_irradiance(scene.background, illuminance_lx, ill.wavelength_m,
                                               scene.filter_half_width_m, consts)
+    for k, lamp in enumerate(scene.extra_backgrounds):  # a mixture: the sources' photon irradiances add
+        photon_irr = photon_irr + background_photon_irradiance(lamp, scene.extra_illuminances_lx[k], ill.wavelength_m,
+                                                               scene.filter_half_width_m, consts)
     background = background_electrons(params, distance_m, photon_irr, integration_time_s)
     # The reflected phase 4 pi f d / c (Eq 3.22) in periods.
     delay = 2.0 * params.illumination_waveform.modulation_frequency_hz * distance_m / consts.speed_of_light_m_per_s

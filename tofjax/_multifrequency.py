@@ -6,7 +6,19 @@ common divisor of the frequencies (in Hz): for two frequencies that are multiple
 Eq 2.7, 7.465 m for 80.32 and 60.24 MHz. The distance is the candidate where the frequencies
 agree: for each wrap count n of the first frequency, d = (phi_1 / 2 pi + n) d_1, every other
 frequency takes its nearest consistent wrap, and the candidate with the smallest disagreement
-(in units of each d_i) wins; the result is the 1/d_i^2-weighted mean of the agreeing distances.
+(in units of each d_i) wins; the result is the weighted mean of the agreeing distances, with the
+weights of the camera's *fusion* (``illumination_waveform.frequency_fusion``, docs/model.md,
+"Frequency fusion"):
+
+- ``inverse_variance`` (default): w_i = 1 / sigma_i^2, sigma_i the depth noise of frequency i alone
+  (from the analytic path at the operating point): the minimum-variance combination;
+- ``unambiguity_range``: w_i = 1 / d_i^2, what inverse variance becomes when every frequency has the
+  same phase noise;
+- ``equal``: w_i = 1;
+- ``highest_frequency``: only the highest frequency's distance; the others only choose its wrap.
+
+The fused distance's noise, for the correct unwrap, is sigma^2 = sum w_i^2 sigma_i^2 / (sum w_i)^2
+(:func:`fused_std`); :func:`predict_multifrequency` gives it analytically.
 
 Under noise the wrong candidate can win: a *wrong unwrap*, an error of a sizeable fraction of the
 extended range (the effect behind Fig 5.9). A simulated frame counts as wrongly unwrapped when its
@@ -30,12 +42,15 @@ import jax.random as jr
 import numpy as np
 from jaxtyping import Array, Bool, Float, PRNGKeyArray
 
+from ._analytic import analytic, moments
 from ._chain import build_chain
 from ._frames import draw_frames, reduce_frames, run_blocks, wrap
 from ._montecarlo import assemble, check_counts, prepare
+from ._constants import SPEED_OF_LIGHT_M_PER_S
 from ._params import Params
 from ._random import key_words
 from ._result import Result
+from ._smooth import Smooth
 from ._sweep import Sweep, check_inputs
 
 
@@ -54,7 +69,10 @@ class MultiFrequencyResult(eqx.Module):
     - ``depth_m``: unwrapped distance per kept frame ``(*b, frames)``, in [0, extended range);
       ``valid``, ``wrong_unwrap``: per kept frame (``None`` without ``keep_frames``).
     - ``depth_mean_m``, ``depth_std_m``: circular statistics (period: the extended range) over the
-      valid, correctly unwrapped frames; ``wrong_unwrap_fraction`` over the valid frames.
+      valid, correctly unwrapped frames; ``wrong_unwrap_fraction`` over the valid frames. From
+      :func:`predict_multifrequency`: the fused expected distance and its noise (analytic), the
+      wrong-unwrap fraction NaN (not modelled analytically).
+    - ``fusion``: the weighting of the frequencies' distances (module docstring).
     """
 
     frequencies_hz: Float[Array, " frequencies"]
@@ -68,23 +86,52 @@ class MultiFrequencyResult(eqx.Module):
     depth_std_m: Float[Array, "*b"]
     wrong_unwrap_fraction: Float[Array, "*b"]
     valid_fraction: Float[Array, "*b"]
+    fusion: str = eqx.field(static=True, default="inverse_variance")
+
+
+def fusion_weights(depth_var_m2: Float[Array, "frequencies *b"], ranges_m, fusion: str) -> Float[Array, "frequencies *b"]:
+    """The fusion's weights per frequency (module docstring), shape of ``depth_var_m2``: the
+    variance of each frequency's distance alone (used by ``inverse_variance`` only)."""
+    ranges = jnp.asarray(ranges_m, dtype=float).reshape((-1,) + (1,) * (jnp.ndim(depth_var_m2) - 1))
+    shape = jnp.shape(depth_var_m2)
+    if fusion == "inverse_variance":  # scaled by the smallest variance; noise-free frequencies share equally
+        smallest = jnp.min(depth_var_m2, axis=0, keepdims=True)
+        positive = depth_var_m2 > 0
+        return jnp.where(positive, smallest / jnp.where(positive, depth_var_m2, 1.0), 1.0)
+    if fusion == "unambiguity_range":
+        return jnp.broadcast_to(1.0 / ranges**2, shape)
+    if fusion == "equal":
+        return jnp.ones(shape)
+    if fusion == "highest_frequency":
+        return jnp.broadcast_to((ranges == jnp.min(ranges)).astype(float), shape)
+    raise ValueError(f"frequency_fusion = {fusion!r} is not allowed: expected one of "
+                     '"inverse_variance", "unambiguity_range", "equal", "highest_frequency"')
+
+
+def fused_std(depth_std_m: Float[Array, "frequencies *b"], weights: Float[Array, "frequencies *b"]) -> Float[Array, "*b"]:
+    """Noise of the weighted mean of independent distances: sqrt(sum w_i^2 sigma_i^2) / sum w_i."""
+    return jnp.sqrt(jnp.sum(weights**2 * depth_std_m**2, axis=0)) / jnp.sum(weights, axis=0)
 
 
 def unwrap_frequencies(phases: Float[Array, "frequencies *b"], ranges_m: Float[Array, " frequencies"],
-                       extended_m: float) -> Float[Array, "*b"]:
-    """Distance from wrapped phases of several frequencies by their agreement (module docstring)."""
+                       extended_m: float, weights: Float[Array, "frequencies *b"] | None = None) -> Float[Array, "*b"]:
+    """Distance from wrapped phases of several frequencies by their agreement (module docstring);
+    ``weights`` of the agreeing distances, broadcastable to ``phases`` (default 1/d_i^2)."""
     expand = (slice(None),) + (None,) * (phases.ndim - 1)
+    if weights is None:
+        weights = jnp.asarray([1.0 / float(r) ** 2 for r in ranges_m]).reshape((-1,) + (1,) * (phases.ndim - 1))
+    weights = jnp.broadcast_to(weights, phases.shape)
     frac = phases / (2.0 * jnp.pi)
     first = (frac[0][None] + jnp.arange(int(math.ceil(extended_m / float(ranges_m[0]) - 1e-9)), dtype=float)[expand]) * ranges_m[0]
-    total_w = 1.0 / ranges_m[0] ** 2
+    total_w = weights[0][None]
     weighted = first * total_w
     cost = jnp.zeros_like(first)
     for i in range(1, phases.shape[0]):
         n = jnp.round(first / ranges_m[i] - frac[i][None])
         d_i = (frac[i][None] + n) * ranges_m[i]
         cost = cost + ((d_i - first) / ranges_m[i]) ** 2
-        weighted = weighted + d_i / ranges_m[i] ** 2
-        total_w = total_w + 1.0 / ranges_m[i] ** 2
+        weighted = weighted + d_i * weights[i][None]
+        total_w = total_w + weights[i][None]
     best = jnp.argmin(cost, axis=0)
     combined = jnp.take_along_axis(weighted / total_w, best[None], axis=0)[0]
     return jnp.mod(combined, extended_m)
@@ -98,8 +145,56 @@ class _Combined(eqx.Module):
     dev2: Array
 
 
+def _check_frequencies(frequencies_hz, fusion: str) -> np.ndarray:
+    freqs = np.asarray(frequencies_hz, dtype=float).reshape(-1)
+    if freqs.size < 2 or not np.all(freqs > 0) or len(set(freqs.tolist())) != freqs.size:
+        raise ValueError(f"frequencies_hz = {freqs.tolist()} must be two or more distinct frequencies > 0 Hz")
+    fusion_weights(jnp.ones(1), [1.0], fusion)  # the fusion's name
+    return freqs
+
+
+def _with_frequency(params: Params, f) -> Params:
+    return eqx.tree_at(lambda q: q.illumination_waveform.modulation_frequency_hz, params, f)
+
+
+def predict_multifrequency(params: Params, sweep: Sweep, frequencies_hz, *, fusion: str = "inverse_variance",
+                           smooth: Smooth | None = None) -> MultiFrequencyResult:
+    """Analytic prediction of a multi-frequency camera: :func:`tofjax.predict` at every frequency
+    (same exposure per frequency) and the fused distance (module docstring).
+
+    ``depth_mean_m`` is the fused distance of the expected phases (with wiggling), unwrapped over the
+    extended range; ``depth_std_m`` the fused noise sqrt(sum w_i^2 sigma_i^2) / sum w_i for the correct
+    unwrap; ``valid_fraction`` 1 where every frequency is valid. ``frequencies_hz``: concrete
+    values; ``fusion``: ``inverse_variance`` (default), ``unambiguity_range``, ``equal`` or
+    ``highest_frequency``; ``smooth``: as :func:`tofjax.predict`.
+    """
+    check_inputs(params, sweep)
+    freqs = _check_frequencies(frequencies_hz, fusion)
+    c = SPEED_OF_LIGHT_M_PER_S  # exact (SI); concrete even when params are traced (calibration)
+    ranges = tuple(float(x) for x in c / (2.0 * freqs))
+    return _predict(params, sweep, jnp.asarray(freqs), float(extended_range_m(freqs, c)), ranges, fusion, smooth)
+
+
+@eqx.filter_jit
+def _predict(params, sweep, freqs, extended, ranges, fusion, smooth) -> MultiFrequencyResult:
+    ranges_np = np.asarray(ranges)
+    per = jax.vmap(lambda f: analytic(build_chain(_with_frequency(params, f), smooth, sweep.samples), sweep))(freqs)
+    weights = fusion_weights(per.depth_std_m**2, ranges_np, fusion)
+    phases = 2.0 * jnp.pi * per.depth_mean_m / jnp.asarray(ranges_np).reshape((-1,) + (1,) * sweep.values.ndim)
+    ok = jnp.all(jnp.isfinite(phases), axis=0)
+    mean = unwrap_frequencies(jnp.where(ok, phases, 0.0), ranges_np, extended, jnp.where(ok, weights, 1.0))
+    valid = jnp.all(per.valid_fraction > 0, axis=0)
+    d = sweep.operating_points(params.scene)[0]
+    return MultiFrequencyResult(
+        frequencies_hz=freqs, extended_range_m=jnp.asarray(extended), distance_m=d, per_frequency=per,
+        depth_m=None, valid=None, wrong_unwrap=None, depth_mean_m=jnp.where(ok, mean, jnp.nan),
+        depth_std_m=fused_std(per.depth_std_m, weights), wrong_unwrap_fraction=jnp.full(d.shape, jnp.nan),
+        valid_fraction=valid.astype(float), fusion=fusion)
+
+
 def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, iterations: int,
-                            frequencies_hz, *, keep_frames: int = 0, progress: bool = False) -> MultiFrequencyResult:
+                            frequencies_hz, *, keep_frames: int = 0, progress: bool = False,
+                            fusion: str = "inverse_variance") -> MultiFrequencyResult:
     """Monte Carlo at every frequency (frames drawn together, chunk by chunk) and the combined,
     unwrapped distance.
 
@@ -117,35 +212,41 @@ def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, ite
     c = float(params.constants.speed_of_light_m_per_s)
     ranges = tuple(float(x) for x in c / (2.0 * freqs))
     return _simulate(params, sweep, key, iterations, jnp.asarray(freqs), keep_frames, float(extended_range_m(freqs, c)),
-                     ranges, progress)
+                     ranges, progress, fusion)
 
 
 @eqx.filter_jit
-def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges, progress=False) -> MultiFrequencyResult:
+def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges, progress=False,
+              fusion="inverse_variance") -> MultiFrequencyResult:
     ranges = np.asarray(ranges)  # concrete: the number of unwrapping candidates depends on them
     n_freq = len(ranges)
 
     def chain_at(f):
-        return build_chain(eqx.tree_at(lambda q: q.illumination_waveform.modulation_frequency_hz, params, f),
-                           points=sweep.samples)
+        return build_chain(_with_frequency(params, f), points=sweep.samples)
 
     chains = jax.vmap(chain_at)(freqs)
     prepared = jax.vmap(lambda ch: prepare(ch, sweep))(chains)
+    if fusion == "inverse_variance":  # each frequency's depth variance alone, from the analytic path
+        var_phase = jax.vmap(lambda ch: moments(ch, sweep).var_phase)(chains).reshape(n_freq, -1)
+        weights = fusion_weights(var_phase * (ranges[:, None] / (2.0 * jnp.pi)) ** 2, ranges, fusion)
+    else:
+        weights = fusion_weights(jnp.ones((n_freq, sweep.samples)), ranges, fusion)
     words = key_words(jr.split(key)[1])
     d = sweep.operating_points(params.scene)[0]
     truth = jnp.mod(d.reshape(-1), extended)
     # Centre of the combined statistics: the noise-free frames' unwrapped distance.
-    reference = unwrap_frequencies(jnp.mod(prepared.consts.ref_phase, 2.0 * jnp.pi), ranges, extended)
+    reference = unwrap_frequencies(jnp.mod(prepared.consts.ref_phase, 2.0 * jnp.pi), ranges, extended, weights)
     streams = jnp.arange(n_freq, dtype=jnp.uint32)
     min_range = float(np.min(ranges))
 
     def step(cb, first, n, counted, record):
-        consts, ref, true = cb
+        consts, ref, true, w = cb
         linear = jnp.all(consts.linear, axis=0)  # a point's path, the same at every frequency (outside the vmap)
         frames = jax.vmap(lambda ch, c, st: draw_frames(ch, c, words, first, n, st, linear))(chains, consts, streams)
         per, valid_f = jax.vmap(lambda c, f: reduce_frames(c, f, counted[None, :]))(consts, frames)
         valid = jnp.all(valid_f, axis=0)
-        depth = unwrap_frequencies(jnp.where(valid[None], jnp.mod(frames.phase, 2.0 * jnp.pi), 0.0), ranges, extended)
+        depth = unwrap_frequencies(jnp.where(valid[None], jnp.mod(frames.phase, 2.0 * jnp.pi), 0.0), ranges, extended,
+                                   w[..., None])
         error = depth - true[:, None]
         error = error - extended * jnp.round(error / extended)
         use = valid & counted[None, :]
@@ -161,7 +262,7 @@ def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges, pro
             out = (kept_f, depth, valid, wrong)
         return (per, combined), out
 
-    (per_sums, combined), kept = run_blocks(step, (prepared.consts, reference, truth), sweep.samples, iterations,
+    (per_sums, combined), kept = run_blocks(step, (prepared.consts, reference, truth, weights), sweep.samples, iterations,
                                             keep, chains.n_phases, progress=progress)
     kept_f = None if kept is None else jax.tree_util.tree_map(lambda x: jnp.moveaxis(x, 1, 0), kept[0])
     per = jax.vmap(lambda ch, p, s, k: assemble(ch, sweep, p, s, k, iterations))(chains, prepared, per_sums, kept_f)
@@ -182,5 +283,5 @@ def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges, pro
         depth_std_m=points(jnp.where(enough, to_m * jnp.sqrt(var), jnp.nan)),
         wrong_unwrap_fraction=points(jnp.where(combined.valid > 0, combined.wrong / jnp.maximum(combined.valid, 1.0),
                                                jnp.nan)),
-        valid_fraction=points(combined.valid / float(iterations)),
+        valid_fraction=points(combined.valid / float(iterations)), fusion=fusion,
     )

@@ -86,12 +86,19 @@ class Illumination(eqx.Module):
 class Scene(eqx.Module):
     """The scene, thesis Table 4.3: target, background light and the nominal operating point.
 
+    ``background`` is the lamp whose illuminance is ``illuminance_lx`` (the swept one);
+    ``extra_backgrounds`` are further sources at the constant illuminances ``extra_illuminances_lx``
+    (a mixture: the photon irradiances add).
+
     ``distance_m``, ``illuminance_lx`` and ``integration_time_s`` are the nominal values; a
     :class:`tofjax.Sweep` replaces one of them by its sample values.
     """
 
     reflectivity: Scalar = _float("scene", "reflectivity")
     background: str = _static("scene", "background")
+    extra_backgrounds: tuple[str, ...] = eqx.field(static=True, converter=tuple,
+                                                   default=_default("scene.extra_backgrounds"))
+    extra_illuminances_lx: Float[Array, " extra"] = _float("scene", "extra_illuminances_lx")
     filter_half_width_m: Scalar = _float("scene", "filter_half_width_m")
     distance_m: Scalar = _float("scene", "distance_m")
     illuminance_lx: Scalar = _float("scene", "illuminance_lx")
@@ -99,6 +106,10 @@ class Scene(eqx.Module):
 
     def __check_init__(self):
         _check(self, "scene")
+        if len(self.extra_backgrounds) != self.extra_illuminances_lx.size:
+            raise ValueError(f"scene.extra_backgrounds = {list(self.extra_backgrounds)!r} and "
+                             f"scene.extra_illuminances_lx (size {self.extra_illuminances_lx.size}) must have one "
+                             "illuminance per source")
 
 
 class Camera(eqx.Module):
@@ -137,6 +148,7 @@ class Pixel(eqx.Module):
     dark_slope_mean_v_per_s: Scalar = _float("pixel", "dark_slope_mean_v_per_s")
     dark_slope_sigma_v_per_s: Scalar = _float("pixel", "dark_slope_sigma_v_per_s")
     readout_noise_e: Scalar = _float("pixel", "readout_noise_e")
+    full_well_e: Scalar = _float("pixel", "full_well_e")
     sbi: bool = _static("pixel", "sbi")
     noise: bool = _static("pixel", "noise")
 
@@ -148,6 +160,7 @@ class Pixel(eqx.Module):
     def integration_capacitance_f(self) -> Array:
         """C_integration = C_diode + C_sample&hold of one tap, F."""
         return self.c_diode_f + self.c_sample_and_hold_f
+
 
 
 class AbstractWaveform(eqx.Module):

@@ -15,7 +15,7 @@ import jax
 from ._config import Config
 from ._analytic import predict
 from ._montecarlo import max_keep_frames, simulate
-from ._multifrequency import MultiFrequencyResult, simulate_multifrequency
+from ._multifrequency import MultiFrequencyResult, predict_multifrequency, simulate_multifrequency
 from ._result import Result
 from ._sweep import Sweep
 
@@ -46,23 +46,27 @@ def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int 
     :func:`tofjax._montecarlo.max_keep_frames`; the statistics use every frame regardless);
     ``progress``: the Monte Carlo reports its chunks to :mod:`tofjax.progress`.
 
-    Raises ``ValueError`` for an unknown method, and for several modulation frequencies with the
-    analytic method (range extension is a per-frame decision, so it needs frames).
+    Several modulation frequencies (``extra_modulation_frequencies_hz``) are fused as
+    ``illumination_waveform.frequency_fusion`` says: frame by frame (``"mc"``) or analytically
+    (``"analytic"``: :func:`tofjax.predict_multifrequency`, noise for the correct unwrap, no
+    wrong-unwrap fraction). Raises ``ValueError`` for an unknown method.
     """
     if method not in METHODS:
         raise ValueError(f"method = {method!r} is not allowed: expected one of {', '.join(map(repr, METHODS))}")
     iterations = config.iterations if iterations is None else iterations
     params, freqs = config.params, config.modulation_frequencies_hz
-    if len(freqs) > 1 and method != "mc":
-        raise ValueError("several modulation frequencies (illumination_waveform.extra_modulation_frequencies_hz) "
-                         "need the Monte Carlo method (mc; on the command line: --method mc)")
+    fusion = config.values["illumination_waveform"]["frequency_fusion"]
     t0 = time.perf_counter()
     multi = None
     copies = len(freqs) + 1 if len(freqs) > 1 else 1
     keep = min(keep_frames, iterations, max_keep_frames(sweep.samples * copies, params.pixel.n_phases))
     if len(freqs) > 1:
-        multi = jax.device_get(simulate_multifrequency(params, sweep, jax.random.key(seed), iterations, freqs,
-                                                       keep_frames=keep, progress=progress))
+        if method == "mc":
+            multi = simulate_multifrequency(params, sweep, jax.random.key(seed), iterations, freqs, keep_frames=keep,
+                                            progress=progress, fusion=fusion)
+        else:
+            multi = predict_multifrequency(params, sweep, freqs, fusion=fusion)
+        multi = jax.device_get(multi)
         result = jax.tree_util.tree_map(lambda x: x[0], multi.per_frequency)
     elif method == "mc":
         result = simulate(params, sweep, jax.random.key(seed), iterations, fixed_pattern=fixed_pattern,

@@ -172,9 +172,11 @@ class SBI(AbstractLimit):
         return ok & (never | always), always
 
 
-def full_well_e(v_reset_v: Array, v_saturated_v: Array, electrons_per_volt: Array) -> Array:
-    """N_sat = (V_reset - V_saturated) C_int / e."""
-    return (v_reset_v - v_saturated_v) * electrons_per_volt
+def full_well_e(v_reset_v: Array, v_saturated_v: Array, electrons_per_volt: Array,
+                given_e: Array | float = 0.0) -> Array:
+    """N_sat = (V_reset - V_saturated) C_int / e (§3.2.5), or a data sheet's full well ``given_e``
+    when it is > 0 (``pixel.full_well_e``; the SBI threshold is then that charge too)."""
+    return jnp.where(given_e > 0.0, given_e, (v_reset_v - v_saturated_v) * electrons_per_volt)
 
 
 def limit_stage(full_well: Float[Array, ""], sbi: bool, temperature_e: Float[Array, ""] | None = None) -> AbstractLimit:

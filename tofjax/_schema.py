@@ -21,7 +21,11 @@ from typing import Any
 from ._constants import ELEMENTARY_CHARGE_C, PLANCK_J_S, SPEED_OF_LIGHT_M_PER_S
 
 WAVEFORM_SHAPES = ("sine", "pulse", "fourier", "gauss_extended", "sawtooth", "triangle")
-BACKGROUNDS = ("sunlight", "halogen", "incandescent", "fluorescent")
+BACKGROUNDS = ("sunlight", "halogen", "incandescent", "fluorescent", "led")
+#: How a camera's "exposure" or integration time is counted (docs/model.md, "Exposure definition").
+EXPOSURE_DEFINITIONS = ("phase_image", "frequency", "frame")
+#: How a multi-frequency camera combines its frequencies' distances (docs/model.md, "Frequency fusion").
+FUSIONS = ("inverse_variance", "unambiguity_range", "equal", "highest_frequency")
 SWEEPS = ("distance", "illuminance", "integration_time")
 
 
@@ -76,6 +80,8 @@ class Key:
             text = "a number (diagonal, circular) or [horizontal, vertical], each " + text
         elif self.kind == "float_list":
             text = "a list of numbers, each " + text
+        elif self.kind == "choice_list":
+            return "a list of " + ", ".join(f'"{c}"' for c in self.choices)
         return text
 
 
@@ -96,13 +102,21 @@ KEYS: tuple[Key, ...] = (
     # --- [scene]  thesis Table 4.3
     _k("scene", "reflectivity", "float", 0.9, "1", "Lambertian reflectivity of the target", 0.0, 1.0),
     _k("scene", "background", "choice", "sunlight", "-",
-       "background light spectrum", choices=BACKGROUNDS),
+       "background light spectrum (led = white phosphor LED, CIE LED-B3)", choices=BACKGROUNDS),
+    _k("scene", "extra_backgrounds", "choice_list", [], "-",
+       "further background sources at constant illuminance (a mixture, e.g. [\"led\"] room light beside "
+       "sunlight through a window); empty = one source", choices=BACKGROUNDS),
+    _k("scene", "extra_illuminances_lx", "float_list", [], "lx",
+       "illuminance on the target of each extra background source (same length as extra_backgrounds)", 0.0, 2e5),
     _k("scene", "filter_half_width_m", "float", 0.0, "m",
        "half width of the rectangular optical band-pass filter around wavelength_m; 0 = no filter", 0.0, 1e-6),
     _k("scene", "distance_m", "float", 1.0, "m", "nominal target distance", 0.0, 1e3, lo_open=True),
     _k("scene", "illuminance_lx", "float", 20.0, "lx", "nominal background illuminance on the target", 0.0, 2e5),
-    _k("scene", "integration_time_s", "float", 2e-3, "s", "nominal integration (exposure) time per phase",
-       0.0, 1.0, lo_open=True),
+    _k("scene", "integration_time_s", "float", 2e-3, "s",
+       "nominal integration (exposure) time, counted as integration_time_per says", 0.0, 1.0, lo_open=True),
+    _k("scene", "integration_time_per", "choice", "phase_image", "-",
+       "what the integration times count: one phase image (the model's unit), all phase images of one frequency, "
+       "or all phase images of all frequencies of a frame", choices=EXPOSURE_DEFINITIONS),
     _k("scene", "distance_from_m", "float", 0.45, "m", "distance sweep start", 0.0, 1e3, lo_open=True),
     _k("scene", "distance_to_m", "float", 4.5, "m", "distance sweep end", 0.0, 1e3, lo_open=True),
     _k("scene", "illuminance_from_lx", "float", 0.0, "lx", "illuminance sweep start", 0.0, 2e5),
@@ -144,6 +158,9 @@ KEYS: tuple[Key, ...] = (
     _k("pixel", "readout_noise_e", "float", 0.0, "e-",
        "readout noise of one tap beyond kTC (source follower, column amplifier, ADC input), rms electrons; "
        "0 = none", 0.0, 1e5),
+    _k("pixel", "full_well_e", "float", 0.0, "e-",
+       "full well of one tap in electrons (a data sheet's value); 0 = from the voltage swing, "
+       "(v_reset_v - v_saturated_v) C_int / e", 0.0, 1e8),
     _k("pixel", "sbi", "bool", True, "-", "suppression of background illumination circuit enabled"),
     _k("pixel", "noise", "bool", True, "-", "temporal noise enabled"),
     _k("pixel", "iterations", "int", 2000, "1", "Monte Carlo repetitions (frames) per sweep sample", 1, 10_000_000),
@@ -157,6 +174,9 @@ KEYS: tuple[Key, ...] = (
        "modulation frequency; a list [f1, f2, ...] is f1 plus extra_modulation_frequencies_hz", 0.0, 5e9, lo_open=True),
     _k("illumination_waveform", "extra_modulation_frequencies_hz", "float_list", [], "Hz",
        "further frequencies for range extension (e.g. [60.24e6]; empty = one frequency)", 0.0, 5e9, lo_open=True),
+    _k("illumination_waveform", "frequency_fusion", "choice", "inverse_variance", "-",
+       "how the frequencies' distances are combined into one: inverse_variance (default), unambiguity_range "
+       "(weights 1/d_u^2), equal, highest_frequency (the others only unwrap)", choices=FUSIONS),
     # --- [reference_waveform]  thesis Table 4.7
     _k("reference_waveform", "shape", "choice", "gauss_extended", "-", "pixel demodulation (reference) waveform",
        choices=WAVEFORM_SHAPES),
@@ -259,6 +279,14 @@ def coerce(key: Key, value: Any, where: str = "") -> Any:
             raise ConfigError(bad_type)
         value = float(value)
         elements = [value]
+    elif key.kind == "choice_list":
+        if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+            raise ConfigError(bad_type)
+        for v in value:
+            if v not in key.choices:
+                raise ConfigError(f"{loc}{key.dotted} = {_fmt(list(value))}: {v!r} is not allowed: expected "
+                                  f"{key.range_text()}" + suggest(v, key.choices))
+        return list(value)
     elif key.kind == "float_list":
         if not isinstance(value, (list, tuple)) or not all(
                 isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
@@ -396,6 +424,11 @@ def validate(raw: Mapping[str, Any], where: str = "") -> dict[str, dict[str, Any
     if len(set(freqs)) != len(freqs):
         raise ConfigError(f"{loc}illumination_waveform.extra_modulation_frequencies_hz = "
                           f"{w['extra_modulation_frequencies_hz']!r} repeats a frequency: all must differ")
+    if len(s["extra_backgrounds"]) != len(s["extra_illuminances_lx"]):
+        raise ConfigError(f"{loc}scene.extra_backgrounds = {s['extra_backgrounds']!r} names "
+                          f"{len(s['extra_backgrounds'])} source(s) but scene.extra_illuminances_lx = "
+                          f"{s['extra_illuminances_lx']!r} gives {len(s['extra_illuminances_lx'])} illuminance(s): "
+                          "give one illuminance per source")
     for stem, unit in (("distance", "m"), ("illuminance", "lx"), ("integration_time", "s")):
         lo, hi = s[f"{stem}_from_{unit}"], s[f"{stem}_to_{unit}"]
         if not lo < hi:

@@ -285,9 +285,6 @@ def _simulate(args) -> int:
     params = config.params
     iterations = args.iterations or config.iterations
     freqs = config.modulation_frequencies_hz
-    if len(freqs) > 1 and args.method != "mc":
-        raise _UsageError("several modulation frequencies (illumination_waveform.extra_modulation_frequencies_hz) "
-                          "need --method mc")
     # Outputs before any work: a run must not end in "cannot write" after minutes.
     if args.report is not None:
         check_output_dir(args.report, "--report")
@@ -318,9 +315,14 @@ def _simulate(args) -> int:
         "config_file": str(args.config) if args.config else "(built-in defaults)",
         "config_json": json.dumps(config.values, separators=(",", ":")),
     }
+    if config.phase_images_per_integration_time != 1:  # the file's times are the model's, per phase image
+        metadata["integration_time_note"] = (f"integration_time_s is per phase image: the configuration's times "
+                                             f"({config.values['scene']['integration_time_per']}) / "
+                                             f"{config.phase_images_per_integration_time}")
     if multi is not None:
         metadata["modulation_frequencies_hz"] = ",".join(repr(float(f)) for f in freqs)
         metadata["extended_range_m"] = repr(float(multi.extended_range_m))
+        metadata["frequency_fusion"] = multi.fusion
     try:
         write_sweep(out, metadata, _multifrequency_columns(multi) if multi is not None else columns_from_result(result))
     except OSError as err:
@@ -328,9 +330,10 @@ def _simulate(args) -> int:
     print(_summary(result, elapsed, out))
     if multi is not None:
         wrong = np.asarray(multi.wrong_unwrap_fraction)
-        print(f"{len(freqs)} frequencies: extended range {float(multi.extended_range_m):.4f} m; combined depth std "
-              f"{1e3 * np.nanmin(multi.depth_std_m):.3g}-{1e3 * np.nanmax(multi.depth_std_m):.3g} mm; wrong unwraps "
-              f"up to {100 * np.nanmax(wrong):.1f} % of valid frames")
+        print(f"{len(freqs)} frequencies ({multi.fusion} fusion): extended range {float(multi.extended_range_m):.4f} m; "
+              f"combined depth std {1e3 * np.nanmin(multi.depth_std_m):.3g}-{1e3 * np.nanmax(multi.depth_std_m):.3g} mm"
+              + (f"; wrong unwraps up to {100 * np.nanmax(wrong):.1f} % of valid frames" if np.any(np.isfinite(wrong))
+                 else " (analytic: for the correct unwrap; wrong unwraps need --method mc)"))
     if args.report is not None:
         from .report import write_report
 

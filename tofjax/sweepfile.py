@@ -13,6 +13,20 @@ Layout (UTF-8)::
     0.45,0.002,20.0,2000,0.4454,0.0021,...
 
 - The first line names the format and its version; a reader refuses versions it does not know.
+  This reader reads versions 1 and 2; writers write version 1 unless the file needs version 2.
+- Version 2 (a backward-compatible addition: every version-1 file is a valid version-2 file in
+  meaning) allows what a version-1 reader would misread, so such files say ``tofjax-sweep/2``:
+  - observable columns may be absent: a depth-only file (published depth-noise data) has no
+    amplitude columns, an amplitude-only file no depth columns; at least one of ``depth_std_m``,
+    ``depth_mean_m`` and ``amplitude_mean_lsb`` is present, and ``valid_fraction`` may be absent
+    (unknown). Absent columns read as empty (NaN) columns;
+  - ``modulation_frequencies_hz: f1, f2, ...``: every modulation frequency of the measurement (the
+    first equals ``modulation_frequency_hz``); the depth columns are then the camera's fused,
+    unwrapped distance, the amplitude columns those of the first frequency;
+  - ``frequency_fusion``: how the camera combined them (:data:`FUSIONS`; default
+    ``inverse_variance``);
+  - ``integration_time_per``: what ``integration_time_s`` counts, ``phase_image`` (default, the
+    model's unit), ``frequency`` (all phase images of one frequency) or ``frame`` (all of a frame).
 - Metadata keys are lower-case identifiers; values run to the end of the line. Required:
   ``sweep`` (distance | illuminance | integration_time), ``source`` (simulation | measurement),
   ``modulation_frequency_hz``, ``n_phases``, ``created_utc`` (ISO 8601).
@@ -39,14 +53,26 @@ from typing import IO
 
 import numpy as np
 
+from ._schema import EXPOSURE_DEFINITIONS, FUSIONS
+
 FORMAT_NAME = "tofjax-sweep"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 FORMAT = f"{FORMAT_NAME}/{FORMAT_VERSION}"
+#: The versions this reader reads.
+FORMATS = (f"{FORMAT_NAME}/1", FORMAT)
+#: Version-1 format line (what writers write when a file needs nothing of version 2).
+FORMAT_V1 = FORMATS[0]
 REQUIRED_METADATA = ("sweep", "source", "modulation_frequency_hz", "n_phases", "created_utc")
 REQUIRED_COLUMNS = (
     "distance_m", "integration_time_s", "illuminance_lx", "n_frames", "depth_mean_m", "depth_std_m",
     "amplitude_mean_lsb", "amplitude_std_lsb", "valid_fraction",
 )
+#: Columns every version-2 file has; of the other required columns of version 1, at least one of
+#: :data:`OBSERVABLE_COLUMNS` is present.
+REQUIRED_COLUMNS_V2 = ("distance_m", "integration_time_s", "illuminance_lx", "n_frames")
+OBSERVABLE_COLUMNS = ("depth_std_m", "depth_mean_m", "amplitude_mean_lsb")
+#: Metadata a version-1 file may not carry (a version-1 reader would ignore it and misread the file).
+V2_METADATA = ("modulation_frequencies_hz", "frequency_fusion", "integration_time_per")
 SWEEP_NAMES = ("distance", "illuminance", "integration_time")
 SOURCES = ("simulation", "measurement")
 _KEY = re.compile(r"[a-z][a-z0-9_.]*\Z")
@@ -94,6 +120,32 @@ class SweepData:
     def n_phases(self) -> int:
         return int(self.metadata["n_phases"])
 
+    @property
+    def modulation_frequencies_hz(self) -> list[float]:
+        """Every modulation frequency of the measurement (one unless the file lists several)."""
+        text = self.metadata.get("modulation_frequencies_hz")
+        return _frequency_list(text) if text else [self.modulation_frequency_hz]
+
+    @property
+    def frequency_fusion(self) -> str:
+        return self.metadata.get("frequency_fusion", "inverse_variance")
+
+    @property
+    def integration_time_per(self) -> str:
+        return self.metadata.get("integration_time_per", "phase_image")
+
+    @property
+    def version(self) -> int:
+        return int(self.metadata["format"].rpartition("/")[2])
+
+    def measured(self, column: str) -> bool:
+        """Whether the file has ``column`` with at least one value."""
+        return column in self.fields and bool(np.any(~np.isnan(self.columns[column])))
+
+
+def _frequency_list(text: str) -> list[float]:
+    return [float(part) for part in text.replace(";", ",").split(",") if part.strip()]
+
 
 def _check_metadata(path, metadata: Mapping[str, str], lines: Mapping[str, int]) -> None:
     def fail(key, message):
@@ -119,6 +171,26 @@ def _check_metadata(path, metadata: Mapping[str, str], lines: Mapping[str, int])
         _dt.datetime.fromisoformat(metadata["created_utc"])
     except ValueError:
         fail("created_utc", f"created_utc = {metadata['created_utc']!r} is not an ISO 8601 time")
+    if metadata.get("format") == FORMAT_V1:
+        for key in V2_METADATA:
+            if key in metadata:
+                fail(key, f"metadata {key} needs format {FORMAT} (a {FORMAT_V1} reader would ignore it): write "
+                          f'"# format: {FORMAT}" on the first line')
+    if "modulation_frequencies_hz" in metadata:
+        text = metadata["modulation_frequencies_hz"]
+        try:
+            freqs = _frequency_list(text)
+        except ValueError:
+            freqs = []
+        if len(freqs) < 1 or not all(math.isfinite(x) and x > 0 for x in freqs) or len(set(freqs)) != len(freqs):
+            fail("modulation_frequencies_hz", f"modulation_frequencies_hz = {text!r} is not a comma-separated list of "
+                                              "distinct frequencies > 0 Hz")
+        if not math.isclose(freqs[0], f, rel_tol=1e-9):
+            fail("modulation_frequencies_hz", f"modulation_frequencies_hz = {text!r} must start with "
+                                              f"modulation_frequency_hz = {metadata['modulation_frequency_hz']}")
+    for key, allowed in (("frequency_fusion", FUSIONS), ("integration_time_per", EXPOSURE_DEFINITIONS)):
+        if key in metadata and metadata[key] not in allowed:
+            fail(key, f"{key} = {metadata[key]!r} is not one of {', '.join(allowed)}")
 
 
 #: Operating-point columns -> the configuration key whose range they share.
@@ -150,13 +222,16 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>", *, allow_empty:
     """Parse the text of a sweep file (see the module docstring for the format). ``allow_empty``
     accepts a file with a header and no rows yet (a recording that has just started)."""
     lines = text.splitlines()
-    if not lines or lines[0].strip() != f"# format: {FORMAT}":
-        first = lines[0].strip() if lines else ""
-        match = re.fullmatch(r"#\s*format:\s*(\S+)", first)
-        if match and match.group(1).startswith(FORMAT_NAME + "/"):
-            raise SweepFileError(path, 1, 1, f"unsupported format version {match.group(1)!r}: this tofjax reads {FORMAT}")
-        raise SweepFileError(path, 1, 1, f'not a tofjax sweep file: the first line must be "# format: {FORMAT}"')
-    metadata: dict[str, str] = {"format": FORMAT}
+    first = lines[0].strip() if lines else ""
+    match = re.fullmatch(r"#\s*format:\s*(\S+)", first)
+    version = match.group(1) if match else None
+    if version not in FORMATS:
+        if version is not None and version.startswith(FORMAT_NAME + "/"):
+            raise SweepFileError(path, 1, 1, f"unsupported format version {version!r}: this tofjax reads "
+                                             + " and ".join(FORMATS))
+        raise SweepFileError(path, 1, 1, f'not a tofjax sweep file: the first line must be "# format: {FORMAT}" '
+                                         f'(or "{FORMAT_V1}")')
+    metadata: dict[str, str] = {"format": version}
     meta_lines: dict[str, int] = {"format": 1}
     i = 1
     while i < len(lines) and lines[i].startswith("#"):
@@ -183,9 +258,14 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>", *, allow_empty:
             raise SweepFileError(path, header_line, _column(lines[i], j), f"bad column name {name!r}")
         if name in header[:j]:
             raise SweepFileError(path, header_line, _column(lines[i], j), f"column {name!r} appears twice")
-    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    missing = [c for c in (REQUIRED_COLUMNS if version == FORMAT_V1 else REQUIRED_COLUMNS_V2) if c not in header]
     if missing:
-        raise SweepFileError(path, header_line, None, "missing required column(s): " + ", ".join(missing))
+        more = (f" (format {FORMAT} allows a file without the amplitude or the depth columns)"
+                if version == FORMAT_V1 and any(c not in REQUIRED_COLUMNS_V2 for c in missing) else "")
+        raise SweepFileError(path, header_line, None, "missing required column(s): " + ", ".join(missing) + more)
+    if not any(c in header for c in OBSERVABLE_COLUMNS):
+        raise SweepFileError(path, header_line, None, "no measured quantity: the file needs at least one of the columns "
+                                                      + ", ".join(OBSERVABLE_COLUMNS))
     rows: list[list[float]] = []
     row_lines: list[int] = []
     for k in range(i + 1, len(lines)):
@@ -217,8 +297,10 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>", *, allow_empty:
     if not rows and not allow_empty:
         raise SweepFileError(path, len(lines) + 1, None, "no data rows")
     data = np.array(rows, dtype=float).reshape(len(rows), len(header))
-    return SweepData(metadata, {name: data[:, j] for j, name in enumerate(header)}, str(path),
-                     np.array(row_lines), {name: j + 1 for j, name in enumerate(header)})
+    columns = {name: data[:, j] for j, name in enumerate(header)}
+    for name in REQUIRED_COLUMNS:  # absent (version 2): not measured
+        columns.setdefault(name, np.full(len(rows), np.nan))
+    return SweepData(metadata, columns, str(path), np.array(row_lines), {name: j + 1 for j, name in enumerate(header)})
 
 
 def _looks_numeric(cell: str) -> bool:
@@ -283,13 +365,16 @@ class SweepWriter:
         self.path = Path(path)
         self.sync = sync
         self.columns = list(columns)
-        meta = {"format": FORMAT, **{k: str(v) for k, v in metadata.items() if k != "format"}}
+        meta = {k: str(v) for k, v in metadata.items() if k != "format"}
+        meta = {"format": needed_format(meta, self.columns), **meta}
         meta.setdefault("created_utc", utc_now())
         for key, value in meta.items():
             if not _KEY.match(key) or "\n" in value:
                 raise ValueError(f"metadata {key!r}: {value!r}: keys must be lower-case identifiers, values one line")
         missing_meta = [k for k in REQUIRED_METADATA if k not in meta]
-        missing = [c for c in REQUIRED_COLUMNS if c not in self.columns]
+        missing = [c for c in REQUIRED_COLUMNS_V2 if c not in self.columns]
+        if not any(c in self.columns for c in OBSERVABLE_COLUMNS):
+            missing.append(" or ".join(OBSERVABLE_COLUMNS))
         if missing_meta or missing:
             raise ValueError(f"sweep file {self.path}: missing metadata {missing_meta} / columns {missing}")
         _check_metadata(self.path, meta, {})
@@ -329,6 +414,15 @@ class SweepWriter:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def needed_format(metadata: Mapping[str, str], columns: Iterable[str]) -> str:
+    """The oldest format that holds a file: version 1 unless it lacks a version-1 column or names
+    version-2 metadata (a version-1 reader must refuse such a file, not misread it)."""
+    columns = list(columns)
+    if any(c not in columns for c in REQUIRED_COLUMNS) or any(k in metadata for k in V2_METADATA):
+        return FORMAT
+    return FORMAT_V1
 
 
 def write_sweep(path: str | os.PathLike, metadata: Mapping[str, object], columns: Mapping[str, Iterable[float]]) -> None:

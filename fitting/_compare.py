@@ -1,0 +1,418 @@
+"""Measured sweeps beside the model, without fitting: the thesis' "analyze LTS data" (§4.4.2, Table
+4.27) as ``tofjax compare``.
+
+Per file and row: the measured depth mean against the real (stage) distance with the model's
+expected depth (its wiggling and offset), the depth error of both, the amplitude (absolute), the
+depth noise (absolute and relative to the distance), and the model / measured ratio of every
+observable. The model is the hard analytic path (:func:`tofjax.predict`, or
+:func:`tofjax.predict_multifrequency` with the file's fusion for several frequencies) of the camera
+the file was taken with (the configuration plus the file's metadata overrides,
+:func:`fitting.read_measurement`). A row the model cannot measure (pixel or ADC saturated: no
+value) or where its closed form is a caveat (near a limit, low SNR, coarse quantisation), and a
+row whose measured frames were not all valid, is flagged by name.
+
+The model's expected depth of one frequency is its wrapped mean continued to the period nearest the
+real distance (what an unwrapping camera would report); a measured depth further than half the
+unambiguity range from the real distance has its error taken modulo that range (a camera of one
+frequency reports wrapped depths); with several frequencies, whose camera claims the extended
+range, such a row is also flagged ``wrapped`` (a wrong unwrap).
+
+Outputs (:func:`write_comparison`): ``comparison.csv`` (every row), ``comparison.md`` (per-file
+summary and table), ``comparison.html`` (the same with the figures embedded) and one PNG per file.
+"""
+
+from __future__ import annotations
+
+import base64
+import csv
+import dataclasses
+import html
+import io
+import math
+from pathlib import Path
+
+import equinox as eqx
+import jax
+import numpy as np
+import tofjax as tj
+
+from ._data import Measurement, read_measurement
+from ._problem import Observables, observables
+
+#: Points of the dense model curve per file.
+DENSE_POINTS = 160
+#: Rows are padded to a multiple of this, so files of similar length share one compiled program.
+_ROW_BUCKET = 64
+#: Ratios within this factor of 1 count as agreeing in the summaries (30 %).
+AGREEMENT = 0.3
+_SCALE = {"distance": ("distance [m]", 1.0), "illuminance": ("background illuminance [lx]", 1.0),
+          "integration_time": ("integration time per phase image [ms]", 1e3)}
+_COLUMN = {"distance": "distance_m", "illuminance": "illuminance_lx", "integration_time": "integration_time_s"}
+_QUANTITIES = ("depth_mean_m", "depth_std_m", "amplitude_mean_lsb", "amplitude_std_lsb")
+
+
+@dataclasses.dataclass
+class FileComparison:
+    """One file beside the model.
+
+    ``measured`` and ``model`` map :data:`_QUANTITIES` to per-row arrays (NaN: not measured / no
+    value); ``depth_error_m`` the measured and model depth minus the real distance; ``flags`` one
+    list of words per row; ``dense_x`` and ``dense`` the model along the swept quantity.
+    """
+
+    path: str
+    sweep_variable: str
+    x: np.ndarray
+    lines: np.ndarray
+    distance_m: np.ndarray
+    frequencies_hz: tuple[float, ...]
+    fusion: str
+    range_m: float
+    measured: dict[str, np.ndarray]
+    model: dict[str, np.ndarray]
+    depth_error_m: dict[str, np.ndarray]
+    flags: list[list[str]]
+    dense_x: np.ndarray
+    dense: dict[str, np.ndarray]
+
+    def ratio(self, name: str) -> np.ndarray:
+        """model / measured of ``name`` per row (NaN where either is missing or the measurement is 0)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = self.model[name] / self.measured[name]
+        return np.where(np.isfinite(r), r, np.nan)
+
+    def summary(self, name: str) -> dict:
+        """Rows with a ratio of ``name``, those within :data:`AGREEMENT`, the median ratio and the
+        rms of log(ratio), over unflagged rows."""
+        r = self.ratio(name)
+        clean = np.array([not f for f in self.flags])
+        use = np.isfinite(r) & clean
+        if not np.any(use):
+            return {"rows": 0}
+        within = np.abs(r[use] - 1.0) <= AGREEMENT
+        return {"rows": int(use.sum()), "within": int(within.sum()), "median_ratio": float(np.median(r[use])),
+                "rms_log_ratio": float(np.sqrt(np.mean(np.log(r[use]) ** 2)))}
+
+
+@eqx.filter_jit
+def _evaluate(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str) -> Observables:
+    return observables(params, sweep, frequencies_hz, fusion, None)
+
+
+def _padded_sweep(m: Measurement, dense: dict[str, np.ndarray]) -> tuple[tj.Sweep, int]:
+    n = m.data.n_rows
+    size = _ROW_BUCKET * math.ceil(n / _ROW_BUCKET)
+    columns = {}
+    for name in ("distance_m", "illuminance_lx", "integration_time_s"):
+        rows = np.asarray(getattr(m.sweep, name))
+        pad = np.full(size - n, rows[0])
+        columns[name] = np.concatenate([rows, pad, dense[name]])
+    return tj.Sweep.points("distance", **columns), size
+
+
+def _dense(m: Measurement) -> dict[str, np.ndarray]:
+    s = m.sweep
+    order = np.argsort(np.asarray(s.values))
+    x = np.asarray(s.values)[order]
+    grid = np.linspace(x[0], x[-1], DENSE_POINTS)
+    return {name: np.interp(grid, x, np.asarray(getattr(s, name))[order])
+            for name in ("distance_m", "illuminance_lx", "integration_time_s")}
+
+
+def _nearest_period(depth: np.ndarray, truth: np.ndarray, period: float) -> np.ndarray:
+    return depth + period * np.round((truth - depth) / period)
+
+
+def compare_measurement(m: Measurement) -> FileComparison:
+    """The model beside one checked file (module docstring)."""
+    dense = _dense(m)
+    sweep, size = _padded_sweep(m, dense)
+    obs = jax.device_get(_evaluate(m.config.params, sweep, tuple(m.frequencies_hz), m.fusion))
+    n = m.data.n_rows
+
+    def get(name: str, part: str) -> np.ndarray:  # the data rows, or the dense points after the padding
+        value = np.asarray(getattr(obs, name))
+        return value[:n] if part == "rows" else value[size:]
+
+    c = float(m.config.params.constants.speed_of_light_m_per_s)
+    period = (float(tj.extended_range_m(m.frequencies_hz, c)) if len(m.frequencies_hz) > 1
+              else c / (2.0 * m.frequencies_hz[0]))
+    truth = np.asarray(m.sweep.distance_m)
+    model = {name: get(name, "rows") for name in _QUANTITIES}
+    model["depth_mean_m"] = _nearest_period(model["depth_mean_m"], truth, period)
+    measured = {name: np.asarray(m.columns[name], dtype=float) for name in _QUANTITIES}
+    error_measured = measured["depth_mean_m"] - truth
+    wrapped = np.abs(error_measured) > 0.5 * period
+    error_measured = np.where(wrapped, error_measured - period * np.round(error_measured / period), error_measured)
+    wrapped &= len(m.frequencies_hz) > 1  # one frequency: a wrapped depth is what the camera reports
+    dense_depth = _nearest_period(get("depth_mean_m", "dense"), dense["distance_m"], period)
+    flags: list[list[str]] = []
+    pixel, adc, caveats = get("pixel_saturated_fraction", "rows"), get("adc_saturated_fraction", "rows"), \
+        get("caveats", "rows").astype(int)
+    valid_measured = np.asarray(m.columns["valid_fraction"])
+    for i in range(n):
+        f = []
+        if pixel[i] > 0:
+            f.append("model: pixel saturated")
+        if adc[i] > 0:
+            f.append("model: ADC saturated")
+        if not f and not np.isfinite(model["depth_std_m"][i]):
+            f.append("model: no value")
+        if caveats[i] & tj.CAVEAT_NEAR_LIMIT:
+            f.append("model: near a limit")
+        if caveats[i] & tj.CAVEAT_LOW_SNR:
+            f.append("model: low SNR")
+        if valid_measured[i] < 1.0:
+            f.append(f"measured: {valid_measured[i]:.3g} of frames valid")
+        if wrapped[i]:
+            f.append("measured: wrapped")
+        flags.append(f)
+    scale = np.asarray(m.sweep.values)
+    dense_x = dense[_COLUMN[m.data.sweep]]
+    return FileComparison(
+        path=m.path, sweep_variable=m.data.sweep, x=scale, lines=np.asarray(m.data.lines), distance_m=truth,
+        frequencies_hz=tuple(m.frequencies_hz), fusion=m.fusion, range_m=period, measured=measured, model=model,
+        depth_error_m={"measured": error_measured, "model": model["depth_mean_m"] - truth}, flags=flags,
+        dense_x=dense_x, dense={"depth_mean_m": dense_depth, "depth_error_m": dense_depth - dense["distance_m"],
+                                "depth_std_m": get("depth_std_m", "dense"),
+                                "amplitude_mean_lsb": get("amplitude_mean_lsb", "dense"),
+                                "amplitude_std_lsb": get("amplitude_std_lsb", "dense"),
+                                "distance_m": dense["distance_m"]})
+
+
+def compare(paths, config: tj.Config | None = None) -> list[FileComparison]:
+    """Every file beside the model of ``config`` (default: built-in defaults), without fitting.
+
+    **Arguments:** ``paths``: tofjax-sweep files (one or several; depth-only, amplitude-only and
+    multi-frequency files included); ``config``: the camera (:class:`tofjax.Config`).
+
+    **Returns:** one :class:`FileComparison` per file; write them with :func:`write_comparison`.
+    """
+    config = config if config is not None else tj.Config()
+    if isinstance(paths, (str, Path)):
+        paths = [paths]
+    if not paths:
+        raise ValueError("no sweep file given")
+    measurements = [read_measurement(p, config) for p in paths]  # every file checked before any work
+    return compare_measurements(measurements)
+
+
+def compare_measurements(measurements: list[Measurement]) -> list[FileComparison]:
+    """:func:`compare_measurement` of every file. Files of different cameras (a static choice such
+    as the background lamp differs) need their own compiled program: they are compiled in parallel
+    threads (XLA compiles without the GIL), one per distinct structure."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    if len(measurements) < 2:
+        return [compare_measurement(m) for m in measurements]
+    with ThreadPoolExecutor(max_workers=min(4, len(measurements))) as pool:
+        return list(pool.map(compare_measurement, measurements))
+
+
+# --- outputs ---------------------------------------------------------------------------------------
+
+_CSV_COLUMNS = (
+    "file", "line", "sweep_value", "distance_m", "measured_depth_mean_m", "model_depth_mean_m",
+    "measured_depth_error_m", "model_depth_error_m", "measured_depth_std_m", "model_depth_std_m", "ratio_depth_std",
+    "measured_amplitude_mean_lsb", "model_amplitude_mean_lsb", "ratio_amplitude_mean",
+    "measured_amplitude_std_lsb", "model_amplitude_std_lsb", "ratio_amplitude_std", "flags",
+)
+
+
+def _cell(x) -> str:
+    if isinstance(x, str):
+        return x
+    x = float(x)
+    return "" if not math.isfinite(x) else f"{x:.6g}"
+
+
+def table_rows(comparisons: list[FileComparison], label: str = "") -> list[dict[str, str]]:
+    """Every row of every file as a flat record (the CSV and Markdown tables)."""
+    out = []
+    for c in comparisons:
+        r_std, r_amp, r_amp_std = c.ratio("depth_std_m"), c.ratio("amplitude_mean_lsb"), c.ratio("amplitude_std_lsb")
+        for i in range(len(c.x)):
+            out.append({
+                "file": Path(c.path).name, "line": str(int(c.lines[i])), "sweep_value": _cell(c.x[i]),
+                "distance_m": _cell(c.distance_m[i]),
+                "measured_depth_mean_m": _cell(c.measured["depth_mean_m"][i]),
+                "model_depth_mean_m": _cell(c.model["depth_mean_m"][i]),
+                "measured_depth_error_m": _cell(c.depth_error_m["measured"][i]),
+                "model_depth_error_m": _cell(c.depth_error_m["model"][i]),
+                "measured_depth_std_m": _cell(c.measured["depth_std_m"][i]),
+                "model_depth_std_m": _cell(c.model["depth_std_m"][i]), "ratio_depth_std": _cell(r_std[i]),
+                "measured_amplitude_mean_lsb": _cell(c.measured["amplitude_mean_lsb"][i]),
+                "model_amplitude_mean_lsb": _cell(c.model["amplitude_mean_lsb"][i]),
+                "ratio_amplitude_mean": _cell(r_amp[i]),
+                "measured_amplitude_std_lsb": _cell(c.measured["amplitude_std_lsb"][i]),
+                "model_amplitude_std_lsb": _cell(c.model["amplitude_std_lsb"][i]),
+                "ratio_amplitude_std": _cell(r_amp_std[i]),
+                "flags": "; ".join(c.flags[i]),
+            })
+    return out
+
+
+def figure(c: FileComparison, title: str = ""):
+    """The six panels of one file (module docstring) as a matplotlib Figure."""
+    from matplotlib.figure import Figure
+
+    label, xs = _SCALE[c.sweep_variable]
+    x, dx = c.x * xs, c.dense_x * xs
+    flagged = np.array([bool(f) for f in c.flags])
+    fig = Figure(figsize=(13, 7.2))
+    fig.subplots_adjust(left=0.06, right=0.985, top=0.9, bottom=0.08, hspace=0.4, wspace=0.27)  # constrained: 2x slower
+    axes = fig.subplots(2, 3).ravel()
+
+    def points(ax, y, name, scale=1.0, color="C0"):
+        y = np.asarray(y) * scale
+        ok = np.isfinite(y)
+        if not np.any(ok):
+            ax.text(0.5, 0.5, f"{name}: not in the file", transform=ax.transAxes, ha="center", color="grey")
+            return
+        ax.plot(x[ok & ~flagged], y[ok & ~flagged], "o", ms=3.5, color=color, label="measured")
+        if np.any(ok & flagged):
+            ax.plot(x[ok & flagged], y[ok & flagged], "x", ms=5, color="grey", label="measured (flagged)")
+
+    ax = axes[0]
+    points(ax, c.measured["depth_mean_m"], "depth mean")
+    ax.plot(dx, c.dense["distance_m"], "k--", lw=0.8, label="real distance")
+    ax.plot(dx, c.dense["depth_mean_m"], "C1-", lw=1.2, label="model (expected depth)")
+    ax.set_ylabel("depth [m]")
+    ax.set_title("calculated vs real distance", fontsize=10)
+    ax = axes[1]
+    points(ax, c.depth_error_m["measured"], "depth mean", 1e3)
+    ax.plot(dx, 1e3 * c.dense["depth_error_m"], "C1-", lw=1.2, label="model (wiggling)")
+    ax.axhline(0, color="k", lw=0.6)
+    ax.set_ylabel("depth error [mm]")
+    ax.set_title("depth error (depth - real distance)", fontsize=10)
+    ax = axes[2]
+    points(ax, c.measured["amplitude_mean_lsb"], "amplitude")
+    ax.plot(dx, c.dense["amplitude_mean_lsb"], "C1-", lw=1.2, label="model")
+    ax.set_ylabel("amplitude [LSB]")
+    ax.set_title("amplitude", fontsize=10)
+    ax = axes[3]
+    points(ax, c.measured["depth_std_m"], "depth noise", 1e3)
+    ax.plot(dx, 1e3 * c.dense["depth_std_m"], "C1-", lw=1.2, label="model")
+    ax.set_ylabel("depth noise [mm]")
+    ax.set_title("depth noise (absolute)", fontsize=10)
+    ax = axes[4]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        points(ax, c.measured["depth_std_m"] / c.distance_m, "depth noise", 100.0)
+        ax.plot(dx, 100 * c.dense["depth_std_m"] / c.dense["distance_m"], "C1-", lw=1.2, label="model")
+    ax.set_ylabel("depth noise / distance [%]")
+    ax.set_title("depth noise (relative)", fontsize=10)
+    ax = axes[5]
+    for name, color, text in (("depth_std_m", "C0", "depth noise"), ("amplitude_mean_lsb", "C2", "amplitude"),
+                              ("amplitude_std_lsb", "C4", "amplitude noise")):
+        r = c.ratio(name)
+        ok = np.isfinite(r)
+        if np.any(ok):
+            ax.plot(x[ok & ~flagged], r[ok & ~flagged], "o-", ms=3, lw=0.6, color=color, label=text)
+            if np.any(ok & flagged):
+                ax.plot(x[ok & flagged], r[ok & flagged], "x", ms=5, color="grey")
+    ax.axhspan(1 - AGREEMENT, 1 + AGREEMENT, color="C2", alpha=0.1, label=f"within {100 * AGREEMENT:.0f} %")
+    ax.axhline(1.0, color="k", lw=0.6)
+    ax.set_ylabel("model / measured")
+    ax.set_title("ratio per point", fontsize=10)
+    for ax in axes:
+        ax.set_xlabel(label)
+        ax.grid(alpha=0.3)
+        handles, _ = ax.get_legend_handles_labels()
+        if handles:
+            ax.legend(fontsize=7)
+    freqs = ", ".join(f"{f / 1e6:g}" for f in c.frequencies_hz)
+    fusion = f", {c.fusion} fusion" if len(c.frequencies_hz) > 1 else ""
+    fig.suptitle(f"{title}{Path(c.path).name}: {c.sweep_variable} sweep at {freqs} MHz{fusion}", fontsize=11)
+    return fig
+
+
+def _summary_lines(comparisons: list[FileComparison]) -> list[str]:
+    lines = ["| file | observable | rows | within 30 % | median model/measured | rms log ratio | flagged rows |",
+             "|---|---|---|---|---|---|---|"]
+    for c in comparisons:
+        flagged = sum(bool(f) for f in c.flags)
+        for name in ("depth_std_m", "amplitude_mean_lsb", "amplitude_std_lsb"):
+            s = c.summary(name)
+            if s["rows"] == 0:
+                continue
+            lines.append(f"| {Path(c.path).name} | {name} | {s['rows']} | {s['within']} | {s['median_ratio']:.3f} | "
+                         f"{s['rms_log_ratio']:.3f} | {flagged} |")
+    return lines
+
+
+_MD_COLUMNS = (("line", "line"), ("sweep_value", "x"), ("measured_depth_error_m", "depth err meas [m]"),
+               ("model_depth_error_m", "depth err model [m]"), ("measured_depth_std_m", "depth std meas [m]"),
+               ("model_depth_std_m", "depth std model [m]"), ("ratio_depth_std", "ratio"),
+               ("measured_amplitude_mean_lsb", "amp meas [LSB]"), ("model_amplitude_mean_lsb", "amp model [LSB]"),
+               ("ratio_amplitude_mean", "ratio"), ("flags", "flags"))
+
+
+def write_comparison(comparisons: list[FileComparison], out: str | Path, *, title: str = "Measured vs model",
+                     preamble: list[str] | None = None, stem: str = "comparison") -> list[Path]:
+    """Write ``{stem}.csv``, ``{stem}.md``, ``{stem}.html`` and one ``{stem}_<i>_<file>.png`` per
+    file into ``out`` (created); returns the paths."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    records = table_rows(comparisons)
+    csv_path = out / f"{stem}.csv"
+    with open(csv_path, "w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=list(_CSV_COLUMNS))
+        writer.writeheader()
+        writer.writerows(records)
+    written.append(csv_path)
+    pngs = []
+    for i, c in enumerate(comparisons):
+        fig = figure(c)
+        buffer = io.BytesIO()
+        fig.savefig(buffer, format="png", dpi=90)
+        path = out / f"{stem}_{i}_{Path(c.path).stem}.png"
+        path.write_bytes(buffer.getvalue())
+        pngs.append((path, buffer.getvalue()))
+        written.append(path)
+    summary = _summary_lines(comparisons)
+    notes = [f"Ratios are model / measured; agreement means within {100 * AGREEMENT:.0f} %; flagged rows are left out "
+             "of the summary. The model is tofjax's hard analytic path of the configured camera (with each file's "
+             "metadata overrides)."]
+    md = [f"# {title}", "", *(preamble or []), *notes, "", "## Summary", "", *summary, ""]
+    for c, (png_path, _) in zip(comparisons, pngs, strict=True):
+        md += [f"## {Path(c.path).name}", "", f"![{Path(c.path).name}]({png_path.name})",
+               "", "| " + " | ".join(h for _, h in _MD_COLUMNS) + " |", "|---" * len(_MD_COLUMNS) + "|"]
+        for r in (r for r in records if r["file"] == Path(c.path).name):
+            md.append("| " + " | ".join(r[k] for k, _ in _MD_COLUMNS) + " |")
+        md.append("")
+    md_path = out / f"{stem}.md"
+    md_path.write_text("\n".join(md), encoding="utf-8")
+    written.append(md_path)
+    html_path = out / f"{stem}.html"
+    html_path.write_text(_html(title, preamble or [], notes, summary, comparisons, records, pngs), encoding="utf-8")
+    written.append(html_path)
+    return written
+
+
+def _md_table_html(lines: list[str]) -> str:
+    rows = [line.strip("|").split("|") for line in lines if not line.startswith("|---")]
+    head, body = rows[0], rows[1:]
+    out = ["<table><tr>" + "".join(f"<th>{html.escape(h.strip())}</th>" for h in head) + "</tr>"]
+    out += ["<tr>" + "".join(f"<td>{html.escape(c.strip())}</td>" for c in r) + "</tr>" for r in body]
+    return "\n".join(out) + "</table>"
+
+
+def _html(title, preamble, notes, summary, comparisons, records, pngs) -> str:
+    parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
+             "<style>body{font-family:sans-serif;max-width:1300px;margin:auto}table{border-collapse:collapse;"
+             "font-size:12px}td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}img{max-width:100%}"
+             "tr.flag td{color:#888}</style></head><body>", f"<h1>{html.escape(title)}</h1>"]
+    parts += [f"<p>{html.escape(p)}</p>" for p in [*preamble, *notes] if p]
+    parts += ["<h2>Summary</h2>", _md_table_html(summary)]
+    for c, (_, png) in zip(comparisons, pngs, strict=True):
+        name = Path(c.path).name
+        parts += [f"<h2>{html.escape(name)}</h2>",
+                  f"<img alt='{html.escape(name)}' src='data:image/png;base64,{base64.b64encode(png).decode()}'>",
+                  "<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for _, h in _MD_COLUMNS) + "</tr>"]
+        for r in (r for r in records if r["file"] == name):
+            cls = " class='flag'" if r["flags"] else ""
+            parts.append(f"<tr{cls}>" + "".join(f"<td>{html.escape(r[k])}</td>" for k, _ in _MD_COLUMNS) + "</tr>")
+        parts.append("</table>")
+    parts.append("</body></html>")
+    return "\n".join(parts)

@@ -1,0 +1,182 @@
+"""Measured data against the model (fitting/_compare.py, `tofjax compare`), the tofjax-sweep/2
+additions, multi-frequency fusion, datasheet inputs and validity at the solution (issue 11)."""
+
+import base64
+import re
+
+import jax
+import numpy as np
+import pytest
+
+import fitting as ft
+import tofjax as tj
+from fitting._compare import compare
+from tofjax import sweepfile as sf
+from tofjax.cli import main
+
+D = np.linspace(0.4, 3.0, 12)
+FREQS = [80.32e6, 60.24e6]
+META = {"sweep": "distance", "source": "measurement", "n_phases": 4, "created_utc": "2026-11-21T00:00:00+00:00"}
+
+
+def _file(path, columns, **meta):
+    sf.write_sweep(path, {**META, "modulation_frequency_hz": repr(FREQS[0]), **meta}, columns)
+    return path
+
+
+def _operating(d, frames=100.0, t=2e-3):
+    return {"distance_m": d, "integration_time_s": np.full(d.shape, t), "illuminance_lx": np.full(d.shape, 20.0),
+            "n_frames": np.full(d.shape, frames)}
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    """Depth-only, amplitude-only and multi-frequency files made from the model itself (so the
+    model/measured ratio is 1 by construction), and a near row that saturates."""
+    tmp = tmp_path_factory.mktemp("compare")
+    d = np.concatenate([[0.12], D])  # 0.12 m saturates the default camera
+    r = tj.predict(tj.Params(), tj.Sweep("distance", d))
+    depth_only = _file(tmp / "depth_only.csv", {**_operating(d), "depth_mean_m": np.asarray(r.depth_mean_m),
+                                                "depth_std_m": np.asarray(r.depth_std_m)})
+    amp_only = _file(tmp / "amplitude_only.csv", {**_operating(d), "amplitude_mean_lsb": np.asarray(r.amplitude_mean_lsb),
+                                                  "amplitude_std_lsb": np.asarray(r.amplitude_std_lsb)})
+    m = tj.predict_multifrequency(tj.Params(), tj.Sweep("distance", d), FREQS)
+    multi = _file(tmp / "multi.csv", {**_operating(d), "depth_mean_m": np.asarray(m.depth_mean_m),
+                                      "depth_std_m": np.asarray(m.depth_std_m)},
+                  modulation_frequencies_hz=",".join(map(repr, FREQS)), frequency_fusion="inverse_variance")
+    return depth_only, amp_only, multi
+
+
+def test_version_2_files_hold_what_version_1_cannot(files):
+    depth_only, amp_only, multi = files
+    assert depth_only.read_text().startswith("# format: tofjax-sweep/2")
+    data = sf.read_sweep(depth_only)
+    assert np.all(np.isnan(data.columns["amplitude_mean_lsb"])) and np.all(np.isnan(data.columns["valid_fraction"]))
+    assert sf.read_sweep(multi).modulation_frequencies_hz == FREQS
+    # a file that needs nothing of version 2 stays version 1 (older readers read it)
+    assert sf.needed_format({}, sf.REQUIRED_COLUMNS) == "tofjax-sweep/1"
+    text = multi.read_text().replace("tofjax-sweep/2", "tofjax-sweep/1", 1)
+    with pytest.raises(sf.SweepFileError, match="modulation_frequencies_hz needs format tofjax-sweep/2"):
+        sf.parse_sweep(text, "old.csv")
+    with pytest.raises(sf.SweepFileError, match="must start with modulation_frequency_hz"):
+        sf.parse_sweep(multi.read_text().replace("80320000.0,60240000.0", "60240000.0,80320000.0"), "m.csv")
+    with pytest.raises(sf.SweepFileError, match="frequency_fusion = 'median' is not one of"):
+        sf.parse_sweep(multi.read_text().replace("fusion: inverse_variance", "fusion: median"), "m.csv")
+
+
+def test_compare_depth_only_amplitude_only_and_multifrequency(files):
+    dual = tj.Config().replace("illumination_waveform.extra_modulation_frequencies_hz", [FREQS[1]])
+    depth, amp = compare(files[:2])
+    (multi,) = compare([files[2]], dual)
+    for c, name in ((depth, "depth_std_m"), (amp, "amplitude_mean_lsb"), (multi, "depth_std_m")):
+        s = c.summary(name)  # the files are the model's own prediction: ratio 1
+        assert s["rows"] == len(D) and s["within"] == len(D)
+        np.testing.assert_allclose(c.ratio(name)[1:], 1.0, rtol=1e-9)
+        assert c.flags[0][0] == "model: pixel saturated" and not any(c.flags[1:])  # the 0.12 m row
+    assert np.all(np.isnan(depth.ratio("amplitude_mean_lsb"))) and np.all(np.isnan(amp.ratio("depth_std_m")))
+    # the model's expected depth of one frequency is continued to the real distance's period
+    np.testing.assert_allclose(depth.model["depth_mean_m"][1:], D, atol=0.03)
+    assert multi.range_m == pytest.approx(7.465, abs=1e-3)
+    with pytest.raises(ft.CalibrationInputError, match="measured at 2 modulation frequencies.*configuration has 1"):
+        compare([files[2]])  # never modelled with one frequency silently
+
+
+def test_compare_command_writes_tables_and_an_html_report(files, tmp_path, capsys):
+    dual = tmp_path / "dual.toml"
+    dual.write_text("[illumination_waveform]\nextra_modulation_frequencies_hz = [60.24e6]\n")
+    out = tmp_path / "cmp"
+    assert main(["compare", str(files[0]), str(files[1]), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "depth noise model/measured median 1.000, 12/12 within 30 %; 1 rows flagged" in printed
+    table = (out / "comparison.csv").read_text().splitlines()
+    assert len(table) == 1 + 2 * (len(D) + 1) and "model: pixel saturated" in table[1]
+    html = (out / "comparison.html").read_text()
+    images = re.findall(r"data:image/png;base64,([A-Za-z0-9+/=]+)", html)
+    assert len(images) == 2 and base64.b64decode(images[0])[:4] == b"\x89PNG"
+    assert "| depth_only.csv | depth_std_m | 12 | 12 | 1.000 |" in (out / "comparison.md").read_text()
+    assert main(["compare", str(files[2]), "--out", str(out)]) == 2
+    assert "measured at 2 modulation frequencies" in capsys.readouterr().err
+    assert main(["compare", str(files[2]), "--config", str(dual), "--out", str(out)]) == 0
+
+
+def test_fused_noise_matches_the_monte_carlo_for_every_fusion():
+    """The analytic fused depth noise sqrt(sum w^2 s^2) / sum w against frames fused the same way
+    (2000 frames: the std's standard error is 1.6 %)."""
+    p = tj.Params(scene=tj.Scene(illuminance_lx=0.0))
+    sweep = tj.Sweep("distance", [0.6, 1.4, 2.2])
+    for fusion in ("inverse_variance", "highest_frequency"):
+        a = tj.predict_multifrequency(p, sweep, FREQS, fusion=fusion)
+        m = tj.simulate_multifrequency(p, sweep, jax.random.key(3), 2000, FREQS, fusion=fusion)
+        np.testing.assert_allclose(np.asarray(m.depth_std_m), np.asarray(a.depth_std_m), rtol=0.06)
+    per = np.asarray(a.per_frequency.depth_std_m)
+    inverse = tj.predict_multifrequency(p, sweep, FREQS)
+    np.testing.assert_allclose(np.asarray(inverse.depth_std_m), (per[0] ** -2 + per[1] ** -2) ** -0.5, rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(a.depth_std_m), per[0], rtol=1e-12)  # highest frequency alone
+
+
+def test_phase_noise_wiggles_with_distance_in_both_paths():
+    """With non-sinusoidal correlation the depth noise oscillates with distance (Köhler et al.,
+    Sensors 25:109, 2025): the analytic path follows the Monte Carlo point by point."""
+    p = tj.Params(scene=tj.Scene(illuminance_lx=0.0))
+    d = np.linspace(1.0, 1.0 + 1.8662 / 4, 9)  # one wiggle period of a 4-phase camera (d_u / 4)
+    a = np.asarray(tj.predict(p, tj.Sweep("distance", d)).depth_std_m)
+    m = np.asarray(tj.simulate(p, tj.Sweep("distance", d), jax.random.key(5), 4000).depth_std_m)
+    np.testing.assert_allclose(m, a, rtol=0.05)
+    relative = a / d
+    assert relative.max() / relative.min() > 1.15  # not a smooth 1/amplitude law: it wiggles
+
+
+def test_datasheet_full_well_exposure_and_background_mixture():
+    near = tj.Sweep("distance", np.linspace(0.15, 1.0, 40))
+    r = tj.predict(tj.Params(pixel=tj.Pixel(full_well_e=20_000.0)), near)
+    n = r.noise
+    top = np.asarray(n.signal_e + n.background_e) / 2 + np.asarray(n.dark_e) / 2  # a lower bound of the fuller tap
+    assert np.all(np.asarray(r.full_well_fraction) >= top / 20_000.0 * (1 - 1e-12))
+    swing = tj.predict(tj.Params(), near)
+    assert np.sum(np.asarray(r.valid_fraction) < 1) > np.sum(np.asarray(swing.valid_fraction) < 1)
+    np.testing.assert_allclose(np.asarray(r.full_well_fraction) * 20_000.0,
+                               np.asarray(swing.full_well_fraction) * (2.9 - 2.0) * 14e-15 / 1.602176634e-19, rtol=1e-12)
+    # exposure per frame of two frequencies x 4 phases = 8 phase images
+    cfg = tj.Config().replace("scene.integration_time_per", "frame").replace(
+        "illumination_waveform.extra_modulation_frequencies_hz", [60.24e6])
+    assert float(cfg.params.scene.integration_time_s) == pytest.approx(2e-3 / 8, rel=1e-15)
+    assert tj.phase_image_time_s(4e-3, "frequency", 4) == pytest.approx(1e-3)
+    # a mixture's background electrons are the sum of its sources' (Eq 3.4 per source)
+    sweep = tj.Sweep("illuminance", [300.0])
+    mix = tj.predict(tj.Params(scene=tj.Scene(extra_backgrounds=("led",), extra_illuminances_lx=[500.0])), sweep)
+    sun = tj.predict(tj.Params(), sweep)
+    led = tj.predict(tj.Params(scene=tj.Scene(background="led")), tj.Sweep("illuminance", [500.0]))
+    np.testing.assert_allclose(mix.noise.background_e, sun.noise.background_e + led.noise.background_e, rtol=1e-12)
+    # a white LED has almost nothing at 850 nm behind a 20 nm filter, sunlight plenty
+    filtered = lambda lamp: float(tj.background_photon_irradiance(lamp, 1000.0, 850e-9, 20e-9, tj.PhysicalConstants()))  # noqa: E731
+    assert 0 < filtered("led") < filtered("sunlight") / 100
+    with pytest.raises(tj.ConfigError, match="extra_backgrounds.*names 1 source.*gives 0"):
+        tj.Config().replace("scene.extra_backgrounds", ["led"])
+
+
+def test_calibration_leaves_out_what_the_fitted_model_cannot_measure(files, tmp_path, capsys):
+    """A depth-only file whose nearest row the camera saturates: the smooth fit would pass through
+    it; it is left out by name and refitted. The dark slope of these data is 0: flagged at its bound.
+    An unconverged fit still writes its diagnostics; --mcmc works with one parameter."""
+    r = tj.predict(tj.Params(pixel=tj.Pixel(dark_slope_mean_v_per_s=0.0)),
+                   tj.Sweep("distance", np.concatenate([[0.12], D])), smooth=tj.Smooth())
+    path = _file(tmp_path / "smooth.csv", {**_operating(np.concatenate([[0.12], D])),
+                                           "depth_std_m": np.asarray(r.depth_std_m)})
+    cal = ft.calibrate([path], fit=["pixel.demodulation_contrast", "pixel.dark_slope_mean_v_per_s"],
+                       relative_error=0.02)
+    assert [(e["line"], e["reason"]) for e in cal.excluded_at_solution] == [(8, "the fitted model saturates the pixel here")]
+    assert cal.least_squares.estimate[0] == pytest.approx(0.42, rel=1e-3)
+    (flag,) = cal.least_squares.bound_flags
+    assert flag["name"] == "pixel.dark_slope_mean_v_per_s" and flag["bound"] == "lower"
+    written = {p.name for p in cal.write(tmp_path / "out")}
+    assert {"compare_initial.html", "compare_calibrated.csv"} <= written
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "line 8: the fitted model saturates the pixel here" in report and "lower bound" in report
+    out = tmp_path / "unconverged"
+    assert main(["calibrate", str(path), "--fit", "pixel.demodulation_contrast", "--relative-error", "0.02",
+                 "--initial", "pixel.demodulation_contrast=0.9", "--max-steps", "1", "--out", str(out), "--quiet"]) == 1
+    assert "--max-steps 1" in capsys.readouterr().err and (out / "report.md").exists()
+    out = tmp_path / "mcmc"
+    assert main(["calibrate", str(path), "--fit", "pixel.demodulation_contrast", "--relative-error", "0.02",
+                 "--mcmc", "--walkers", "4", "--steps", "30", "--out", str(out), "--quiet"]) == 0
+    assert (out / "corner.png").exists()
