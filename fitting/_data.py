@@ -95,7 +95,7 @@ def _overrides(path: str, metadata: dict[str, str], config: tj.Config) -> tj.Con
             if text.lower() not in ("true", "false"):
                 raise CalibrationInputError(f"{path}: metadata {key} = {text!r} is not true or false")
             value = text.lower() == "true"
-        elif spec.kind in ("pair", "angle", "float_list"):
+        elif spec.kind in ("pair", "angle", "float_list", "choice_list"):
             raise CalibrationInputError(f"{path}: metadata {key} cannot override a pair or list; set it in the "
                                         "configuration")
         try:
