@@ -12,7 +12,6 @@ import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -24,7 +23,7 @@ from ._compare import FileComparison, compare_measurements, write_comparison
 from ._data import OBSERVABLES, SweepRows, load_rows, read_measurement
 from ._least_squares import LeastSquaresResult, fit_least_squares
 from ._parameters import CalibrationInputError, make_parameters
-from ._problem import Problem, batched_curves, build_problem, observables
+from ._problem import Problem, batched_curves, build_problem, hard_observables
 
 if TYPE_CHECKING:  # emcee (and scipy through it) are imported only when a posterior is sampled
     from ._posterior import PosteriorResult
@@ -192,8 +191,8 @@ def invalid_at(problem: Problem, theta, rows: list[SweepRows]) -> list[tuple[int
     reason)."""
     out = []
     for group in problem.groups:
-        obs = jax.device_get(_hard(problem.with_values(group.params, jnp.asarray(theta)), group.data_sweep(),
-                                   group.frequencies_hz, group.fusion))
+        obs = jax.device_get(hard_observables(problem.with_values(group.params, jnp.asarray(theta)),
+                                              group.data_sweep(), group.frequencies_hz, group.fusion))
         for i, (lo, hi) in zip(group.files, group.bounds, strict=True):
             r = rows[i]
             used = np.zeros(r.n_rows, bool)
@@ -207,11 +206,6 @@ def invalid_at(problem: Problem, theta, rows: list[SweepRows]) -> list[tuple[int
                           "the fitted model has no value here")
                 out.append((i, int(k), reason))
     return out
-
-
-@eqx.filter_jit
-def _hard(params: tj.Params, sweep: tj.Sweep, frequencies_hz, fusion: str):
-    return observables(params, sweep, frequencies_hz, fusion, None)
 
 
 def true_values(cal: Calibration) -> list[dict]:

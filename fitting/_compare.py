@@ -31,16 +31,13 @@ import io
 import math
 from pathlib import Path
 
-import equinox as eqx
 import jax
 import numpy as np
 import tofjax as tj
 
 from ._data import Measurement, read_measurement
-from ._problem import Observables, observables
+from ._problem import DENSE_POINTS, dense_sweep, hard_observables
 
-#: Points of the dense model curve per file.
-DENSE_POINTS = 160
 #: Rows are padded to a multiple of this, so files of similar length share one compiled program.
 _ROW_BUCKET = 64
 #: Ratios within this factor of 1 count as agreeing in the summaries (30 %).
@@ -94,11 +91,6 @@ class FileComparison:
                 "rms_log_ratio": float(np.sqrt(np.mean(np.log(r[use]) ** 2)))}
 
 
-@eqx.filter_jit
-def _evaluate(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str) -> Observables:
-    return observables(params, sweep, frequencies_hz, fusion, None)
-
-
 def _padded_sweep(m: Measurement, dense: dict[str, np.ndarray]) -> tuple[tj.Sweep, int]:
     n = m.data.n_rows
     size = _ROW_BUCKET * math.ceil(n / _ROW_BUCKET)
@@ -110,24 +102,15 @@ def _padded_sweep(m: Measurement, dense: dict[str, np.ndarray]) -> tuple[tj.Swee
     return tj.Sweep.points("distance", **columns), size
 
 
-def _dense(m: Measurement) -> dict[str, np.ndarray]:
-    s = m.sweep
-    order = np.argsort(np.asarray(s.values))
-    x = np.asarray(s.values)[order]
-    grid = np.linspace(x[0], x[-1], DENSE_POINTS)
-    return {name: np.interp(grid, x, np.asarray(getattr(s, name))[order])
-            for name in ("distance_m", "illuminance_lx", "integration_time_s")}
-
-
 def _nearest_period(depth: np.ndarray, truth: np.ndarray, period: float) -> np.ndarray:
     return depth + period * np.round((truth - depth) / period)
 
 
 def compare_measurement(m: Measurement) -> FileComparison:
     """The model beside one checked file (module docstring)."""
-    dense = _dense(m)
+    dense = dense_sweep(m.sweep, DENSE_POINTS)
     sweep, size = _padded_sweep(m, dense)
-    obs = jax.device_get(_evaluate(m.config.params, sweep, tuple(m.frequencies_hz), m.fusion))
+    obs = jax.device_get(hard_observables(m.config.params, sweep, tuple(m.frequencies_hz), m.fusion))
     n = m.data.n_rows
 
     def get(name: str, part: str) -> np.ndarray:  # the data rows, or the dense points after the padding
@@ -273,34 +256,29 @@ def figure(c: FileComparison, title: str = ""):
         if np.any(ok & flagged):
             ax.plot(x[ok & flagged], y[ok & flagged], "x", ms=5, color="grey", label="measured (flagged)")
 
-    ax = axes[0]
-    points(ax, c.measured["depth_mean_m"], "depth mean")
-    ax.plot(dx, c.dense["distance_m"], "k--", lw=0.8, label="real distance")
-    ax.plot(dx, c.dense["depth_mean_m"], "C1-", lw=1.2, label="model (expected depth)")
-    ax.set_ylabel("depth [m]")
-    ax.set_title("calculated vs real distance", fontsize=10)
-    ax = axes[1]
-    points(ax, c.depth_error_m["measured"], "depth mean", 1e3)
-    ax.plot(dx, 1e3 * c.dense["depth_error_m"], "C1-", lw=1.2, label="model (wiggling)")
-    ax.axhline(0, color="k", lw=0.6)
-    ax.set_ylabel("depth error [mm]")
-    ax.set_title("depth error (depth - real distance)", fontsize=10)
-    ax = axes[2]
-    points(ax, c.measured["amplitude_mean_lsb"], "amplitude")
-    ax.plot(dx, c.dense["amplitude_mean_lsb"], "C1-", lw=1.2, label="model")
-    ax.set_ylabel("amplitude [LSB]")
-    ax.set_title("amplitude", fontsize=10)
-    ax = axes[3]
-    points(ax, c.measured["depth_std_m"], "depth noise", 1e3)
-    ax.plot(dx, 1e3 * c.dense["depth_std_m"], "C1-", lw=1.2, label="model")
-    ax.set_ylabel("depth noise [mm]")
-    ax.set_title("depth noise (absolute)", fontsize=10)
-    ax = axes[4]
     with np.errstate(divide="ignore", invalid="ignore"):
-        points(ax, c.measured["depth_std_m"] / c.distance_m, "depth noise", 100.0)
-        ax.plot(dx, 100 * c.dense["depth_std_m"] / c.dense["distance_m"], "C1-", lw=1.2, label="model")
-    ax.set_ylabel("depth noise / distance [%]")
-    ax.set_title("depth noise (relative)", fontsize=10)
+        relative_measured = c.measured["depth_std_m"] / c.distance_m
+        relative_model = c.dense["depth_std_m"] / c.dense["distance_m"]
+    # (measured, its name, model curve, scale, model label, y label, title) per panel
+    panels = (
+        (c.measured["depth_mean_m"], "depth mean", c.dense["depth_mean_m"], 1.0, "model (expected depth)",
+         "depth [m]", "calculated vs real distance"),
+        (c.depth_error_m["measured"], "depth mean", c.dense["depth_error_m"], 1e3, "model (wiggling)",
+         "depth error [mm]", "depth error (depth - real distance)"),
+        (c.measured["amplitude_mean_lsb"], "amplitude", c.dense["amplitude_mean_lsb"], 1.0, "model",
+         "amplitude [LSB]", "amplitude"),
+        (c.measured["depth_std_m"], "depth noise", c.dense["depth_std_m"], 1e3, "model", "depth noise [mm]",
+         "depth noise (absolute)"),
+        (relative_measured, "depth noise", relative_model, 100.0, "model", "depth noise / distance [%]",
+         "depth noise (relative)"),
+    )
+    for ax, (measured, name, curve, scale, model_label, ylabel, title) in zip(axes, panels, strict=False):
+        points(ax, measured, name, scale)
+        ax.plot(dx, scale * curve, "C1-", lw=1.2, label=model_label)
+        ax.set_ylabel(ylabel)
+        ax.set_title(title, fontsize=10)
+    axes[0].plot(dx, c.dense["distance_m"], "k--", lw=0.8, label="real distance")
+    axes[1].axhline(0, color="k", lw=0.6)
     ax = axes[5]
     for name, color, text in (("depth_std_m", "C0", "depth noise"), ("amplitude_mean_lsb", "C2", "amplitude"),
                               ("amplitude_std_lsb", "C4", "amplitude noise")):

@@ -34,9 +34,9 @@ DENSE_POINTS = 160
 _OPERATING_POINT = ("distance_m", "illuminance_lx", "integration_time_s")
 
 
-def dense_sweep(rows: SweepRows, n: int = DENSE_POINTS) -> dict[str, np.ndarray]:
-    """Operating points along a file's swept quantity, ``n`` of them, interpolated between its rows."""
-    s = rows.sweep
+def dense_sweep(s: tj.Sweep, n: int = DENSE_POINTS) -> dict[str, np.ndarray]:
+    """Operating points along a file's swept quantity (its rows' sweep ``s``), ``n`` of them,
+    interpolated between its rows."""
     order = np.argsort(np.asarray(s.values))
     x = np.asarray(s.values)[order]
     grid = np.linspace(x[0], x[-1], n)
@@ -76,6 +76,12 @@ def observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float,
     return Observables(p.amplitude_mean_lsb[0], p.amplitude_std_lsb[0], m.depth_mean_m, m.depth_std_m,
                        m.valid_fraction, jnp.max(p.pixel_saturated_fraction, axis=0),
                        jnp.max(p.adc_saturated_fraction, axis=0), caveats)
+
+
+@eqx.filter_jit
+def hard_observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str) -> Observables:
+    """:func:`observables` of the hard model (no relaxation), compiled: what the camera can measure."""
+    return observables(params, sweep, frequencies_hz, fusion, None)
 
 
 class FileGroup(eqx.Module):
@@ -122,7 +128,7 @@ def _groups(rows: list[SweepRows]) -> tuple[FileGroup, ...]:
     groups = []
     for group in members:
         cat = lambda xs: jnp.asarray(np.concatenate([np.asarray(x) for x in xs]))  # noqa: E731
-        dense = [dense_sweep(rows[i]) for i in group]
+        dense = [dense_sweep(rows[i].sweep) for i in group]
         columns = {name: cat([getattr(rows[i].sweep, name) for i in group] + [d[name] for d in dense])
                    for name in _OPERATING_POINT}
         ends = np.cumsum([rows[i].n_rows for i in group])

@@ -50,6 +50,7 @@ from ._constants import SPEED_OF_LIGHT_M_PER_S
 from ._params import Params
 from ._random import key_words
 from ._result import Result
+from ._schema import FUSIONS
 from ._smooth import Smooth
 from ._sweep import Sweep, check_inputs
 
@@ -105,7 +106,7 @@ def fusion_weights(depth_var_m2: Float[Array, "frequencies *b"], ranges_m, fusio
     if fusion == "highest_frequency":
         return jnp.broadcast_to((ranges == jnp.min(ranges)).astype(float), shape)
     raise ValueError(f"frequency_fusion = {fusion!r} is not allowed: expected one of "
-                     '"inverse_variance", "unambiguity_range", "equal", "highest_frequency"')
+                     + ", ".join(f'"{f}"' for f in FUSIONS))
 
 
 def fused_std(depth_std_m: Float[Array, "frequencies *b"], weights: Float[Array, "frequencies *b"]) -> Float[Array, "*b"]:
