@@ -272,11 +272,11 @@ def figure(c: FileComparison, title: str = ""):
         (relative_measured, "depth noise", relative_model, 100.0, "model", "depth noise / distance [%]",
          "depth noise (relative)"),
     )
-    for ax, (measured, name, curve, scale, model_label, ylabel, title) in zip(axes, panels, strict=False):
+    for ax, (measured, name, curve, scale, model_label, ylabel, heading) in zip(axes, panels, strict=False):
         points(ax, measured, name, scale)
         ax.plot(dx, scale * curve, "C1-", lw=1.2, label=model_label)
         ax.set_ylabel(ylabel)
-        ax.set_title(title, fontsize=10)
+        ax.set_title(heading, fontsize=10)
     axes[0].plot(dx, c.dense["distance_m"], "k--", lw=0.8, label="real distance")
     axes[1].axhline(0, color="k", lw=0.6)
     ax = axes[5]
