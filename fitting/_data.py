@@ -167,10 +167,12 @@ def load_rows(path: str | Path, config: tj.Config, *, relative_error: float | No
     m = read_measurement(path, config)
     path, data, cols, file_config = m.path, m.data, m.columns, m.config
     frames = cols["n_frames"]
-    if relative_error is None and np.any(frames < 2):
-        i = int(np.argmax(frames < 2))
+    few = ~(frames >= 2)  # an empty cell (NaN): not stated
+    if relative_error is None and np.any(few):
+        i = int(np.argmax(few))
+        stated = "not stated (empty)" if np.isnan(frames[i]) else f"{frames[i]:g}"
         raise CalibrationInputError(
-            f"{path}:{data.lines[i]}: n_frames = {frames[i]:g}: uncertainties need at least 2 frames per row "
+            f"{path}:{data.lines[i]}: n_frames = {stated}: uncertainties need at least 2 frames per row "
             "(an analytic prediction has 0); give a relative error (--relative-error)")
     if relative_error is not None and not (0 < relative_error < 10):
         raise CalibrationInputError(f"relative error = {relative_error!r} is out of range: allowed 0 < value < 10")

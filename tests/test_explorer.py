@@ -131,7 +131,7 @@ def test_invalid_values_show_the_message_instead_of_raising(dotted, value, index
     assert ex.config.values["scene"]["reflectivity"] == 0.5
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=20, deadline=None)
 @given(key=st.sampled_from([k for k in KEYS if k.kind == "float"]),
        value=st.floats(allow_nan=True, allow_infinity=True))
 def test_any_number_in_any_float_field_is_accepted_or_explained(shared_explorer, key, value):

@@ -175,7 +175,7 @@ def test_responsivity_and_lens_loss_degeneracy_is_reported(config):
 
 def test_posterior_agrees_with_least_squares(example_fit):
     with pytest.warns(ft.ShortChainWarning):
-        post = ft.sample_posterior(example_fit.problem, example_fit.least_squares, walkers=16, steps=400, seed=3,
+        post = ft.sample_posterior(example_fit.problem, example_fit.least_squares, walkers=16, steps=200, seed=3,
                                    progress=False)
     ratio = post.std / example_fit.least_squares.sigma
     assert np.all((ratio > 0.7) & (ratio < 1.3)), ratio
@@ -194,7 +194,7 @@ def test_a_gaussian_prior_pulls_the_posterior(config, example_fit):
                                     priors={NAMES[2]: (mu, sigma)})
     problem = ft.build_problem(parameters, example_fit.rows)
     with pytest.warns(ft.ShortChainWarning):
-        post = ft.sample_posterior(problem, ls, walkers=16, steps=300, seed=4, progress=False)
+        post = ft.sample_posterior(problem, ls, walkers=16, steps=150, seed=4, progress=False)
     assert abs(post.median[2] - mu) < 3 * sigma
     assert post.std[2] < 0.3 * ls.sigma[2]
 

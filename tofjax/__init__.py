@@ -45,6 +45,7 @@ _EXPORTS = {
     "AbstractNoiseSource": "_noise", "NoiseBudget": "_noise", "NOISE_SOURCES": "_noise",
     "get_leaf": "_leaves", "set_leaves": "_leaves",
     "SPEED_OF_LIGHT_M_PER_S": "_constants",
+    "PRESETS": "_presets", "Preset": "_presets", "preset_config": "_presets", "preset_text": "_presets",
 }
 #: Public submodules, loaded on first use.
 _SUBMODULES = ("plots", "progress", "report", "schema", "stats", "sweepfile", "cli")
@@ -96,6 +97,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from ._exposure import phase_image_time_s, phase_images_per_count  # noqa: F401
     from ._noise import NOISE_SOURCES, AbstractNoiseSource, NoiseBudget  # noqa: F401
     from ._optics import lens, spot_area_m2  # noqa: F401
+    from ._presets import PRESETS, Preset, preset_config, preset_text  # noqa: F401
     from ._params import (  # noqa: F401
         ADC, AbstractWaveform, Camera, Illumination, IlluminationWaveform, Params, PhysicalConstants, Pixel,
         ReferenceWaveform, Scene)

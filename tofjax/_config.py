@@ -183,19 +183,24 @@ _SECTION_TITLES = {
 }
 
 
-def render_toml(values: Mapping[str, Mapping[str, Any]]) -> str:
+def render_toml(values: Mapping[str, Mapping[str, Any]], notes: Mapping[str, str] | None = None,
+                header: list[str] | None = None) -> str:
     """Write a full configuration as TOML with a ``# meaning [unit]; allowed: range`` comment per key.
 
-    tomllib reads TOML but does not write it, and no writer keeps comments on a key-by-key basis
-    for a flat schema like this one; the values are plain scalars and pairs, so the writer is
-    a few lines.
+    ``notes`` (dotted key -> text) adds a second comment line to a key (a preset's source);
+    ``header`` replaces the first comment lines. tomllib reads TOML but does not write it, and no
+    writer keeps comments on a key-by-key basis for a flat schema like this one; the values are
+    plain scalars and pairs, so the writer is a few lines.
     """
-    lines = ["# tofjax camera configuration. SI units throughout; a file may name only what it changes.", ""]
+    lines = [*(header or ["# tofjax camera configuration."]),
+             "# SI units throughout; a file may name only what it changes.", ""]
     for section in SECTIONS:
         lines.append(f"# {_SECTION_TITLES[section]}")
         lines.append(f"[{section}]")
         for key in keys_of(section):
             lines.append(f"# {key.doc} [{key.unit}]; allowed: {key.range_text()}")
+            if notes and f"{section}.{key.name}" in notes:
+                lines.append(f"# {notes[section + '.' + key.name]}")
             lines.append(f"{key.name} = {_toml_value(values[section][key.name])}")
         lines.append("")
     return "\n".join(lines)

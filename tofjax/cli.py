@@ -192,9 +192,15 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--check", action="store_true", help="validate everything, print the plan, compute nothing")
     sim.add_argument("--quiet", action="store_true", help="no progress report")
 
+    from ._presets import PRESETS
+
     cfg = sub.add_parser("config", help="print the full default configuration with comments",
                          description="Print the full default TOML configuration, a comment on every key "
-                                     "(meaning, unit, allowed range). A file may name only what it changes.")
+                                     "(meaning, unit, allowed range). A file may name only what it changes. "
+                                     "--preset prints a public camera instead, every key with its source or "
+                                     "marked unknown.")
+    cfg.add_argument("--preset", choices=tuple(PRESETS),
+                     help="a public camera: " + "; ".join(f"{n}: {p.title}" for n, p in PRESETS.items()))
     cfg.add_argument("--out", type=Path, help="write to this file instead of standard output (its directory is made)")
     for ep in sorted(entry_points(group="tofjax.commands"), key=lambda e: e.name):
         ep.load()(sub)
@@ -355,8 +361,9 @@ def main(argv: list[str] | None = None) -> int:
             return args.run(args)
         if args.command == "config":
             from ._config import default_config_text
+            from ._presets import preset_text
 
-            text = default_config_text()
+            text = preset_text(args.preset) if args.preset else default_config_text()
             if args.out:
                 check_output_file(args.out, "--out")  # makes the directory, as simulate does
                 try:

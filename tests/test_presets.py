@@ -1,0 +1,90 @@
+"""Camera presets and the shipped validation data: every value has a source, unknowns are marked,
+the printed TOML reads back to the same configuration, and every digitised number names where it
+was stated. No model evaluation here (the validation notebook runs compare and calibrate on them)."""
+
+import math
+import tomllib
+from pathlib import Path
+
+import pytest
+
+import fitting
+import tofjax as tj
+from tofjax import sweepfile
+from tofjax import PRESETS, preset_config, preset_text
+from tofjax._presets import UNKNOWN
+from tofjax._schema import KEY_BY_DOTTED
+
+VALIDATION = Path(fitting.__file__).parent / "validation"
+
+
+@pytest.mark.parametrize("name", list(PRESETS))
+def test_every_key_of_a_preset_names_its_source_or_is_marked_unknown(name):
+    text = preset_text(name)
+    p = PRESETS[name]
+    notes, section, previous = {}, None, ""
+    for line in text.splitlines():
+        if line.startswith("["):
+            section = line.strip("[]")
+        elif line and not line.startswith("#"):
+            notes[f"{section}.{line.split(' = ')[0]}"] = previous
+        previous = line
+    assert set(notes) == set(KEY_BY_DOTTED)
+    for dotted, note in notes.items():
+        assert note.startswith("# source: ") or note == f"# {UNKNOWN}", (dotted, note)
+        if dotted in p.values:  # a value the preset sets cites one of its references by tag
+            assert any(note.startswith(f"# source: {tag}") for tag in p.references), note
+    for tag, citation in p.references.items():
+        assert f"[{tag}] {citation}" in text
+
+
+@pytest.mark.parametrize("name", list(PRESETS))
+def test_printed_preset_reads_back_to_the_same_configuration(name, tmp_path, capsys):
+    assert tj.cli.main(["config", "--preset", name]) == 0
+    path = tmp_path / "preset.toml"
+    path.write_text(capsys.readouterr().out, encoding="utf-8")
+    assert tj.load_config(path).values == preset_config(name).values
+    tomllib.loads(path.read_text(encoding="utf-8"))  # plain TOML
+
+
+def test_preset_values_are_the_datasheets_numbers():
+    k2, ti = preset_config("kinect-v2").params, preset_config("ti-opt8241").params
+    assert (k2.pixel.demodulation_contrast, k2.pixel.photo_responsivity_a_per_w) == (0.67, 0.14)
+    assert (ti.pixel.demodulation_contrast, ti.pixel.photo_responsivity_a_per_w) == (0.45, 0.35)
+    assert k2.adc.resolution_bits == 10 and ti.adc.resolution_bits == 12
+    assert k2.illumination_waveform.modulation_frequency_hz == ti.illumination_waveform.modulation_frequency_hz == 50e6
+    # quantum efficiency of the quoted responsivities: R h c / (q lambda) = 0.20 (860 nm) and 0.51 (850 nm)
+    qe = {n: float(p.pixel.photo_responsivity_a_per_w * 6.62607015e-34 * 299792458.0
+                   / (1.602176634e-19 * p.illumination.wavelength_m)) for n, p in (("k2", k2), ("ti", ti))}
+    assert math.isclose(qe["k2"], 0.2019, rel_tol=1e-3) and math.isclose(qe["ti"], 0.5106, rel_tol=1e-3)
+    assert preset_config("thesis").values == tj.Config().values
+
+
+def test_unknown_preset_is_one_line_naming_the_choices(capsys):
+    with pytest.raises(SystemExit) as info:
+        tj.cli.main(["config", "--preset", "kinect"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "--preset" in err and "'kinect'" in err and "kinect-v2" in err
+
+
+@pytest.mark.parametrize("path", sorted(VALIDATION.glob("*.csv")), ids=lambda p: p.name)
+def test_every_validation_number_names_its_source_conditions_and_uncertainty(path):
+    data = sweepfile.read_sweep(path)
+    meta = data.metadata
+    assert data.metadata["source"] == "measurement"
+    for key in ("provenance", "conditions", "uncertainty", "camera"):
+        assert meta.get(key), key
+    assert "§" in meta["provenance"]
+    for i in range(data.n_rows):  # each row says where its numbers were stated
+        assert meta.get(f"row.{i + 1}"), f"row.{i + 1}"
+    assert all(math.isnan(n) for n in data.columns["n_frames"])  # not stated: never invented
+
+
+def test_a_file_that_does_not_state_its_frames_needs_a_relative_error():
+    path = VALIDATION / "thesis_distance.csv"
+    with pytest.raises(fitting.CalibrationInputError, match=r"thesis_distance.csv:\d+: n_frames = not stated "
+                                                            r"\(empty\).*--relative-error"):
+        fitting.load_rows(path, preset_config("thesis"))
+    rows = fitting.load_rows(path, preset_config("thesis"), relative_error=0.2)
+    assert len(rows.used("depth_std_m")) == 2 and len(rows.used("amplitude_mean_lsb")) == 1

@@ -1,0 +1,160 @@
+"""Camera presets: public sensors described by what their publications state, with every source.
+
+A preset is a partial configuration. Each value it sets names its source: a datasheet line or a
+paper's abstract, quoted as stated, with the conditions it was stated under. Every key the sources
+leave open keeps tofjax's default, which is the thesis' verification camera (thesis Tables 4.2-4.8).
+The rendered TOML marks those keys "unknown" on their comment line, so nobody mistakes a default
+for a measured value.
+
+Interpretations, applied to every preset:
+- A datasheet's *responsivity* in A/W is the pixel's own response: microlens and fill factor are
+  already inside it. The preset therefore sets ``camera.fill_factor = 1`` so that the fill factor is
+  not counted twice.
+- A *demodulation (modulation) contrast* quoted at one frequency holds only there. The preset runs
+  at that frequency, so that the contrast and the frequency belong together. The camera's own
+  operating frequencies, and the contrast at each, are unknown unless a source gives them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from typing import Any
+
+from ._schema import SECTIONS, keys_of, suggest
+
+UNKNOWN = "unknown for this camera: the default (thesis verification camera) is kept"
+
+
+@dataclasses.dataclass(frozen=True)
+class Preset:
+    """A camera described by its publications.
+
+    - ``name``: what ``tofjax config --preset NAME`` takes;
+    - ``title``: the camera or sensor;
+    - ``references``: tag -> full citation;
+    - ``values``: dotted key -> (value, source note naming a reference tag);
+    - ``section_sources``: section -> source note for every key of the section the preset does
+      not set (the thesis preset: its tables). Sections not listed are unknown.
+    """
+
+    name: str
+    title: str
+    references: Mapping[str, str]
+    values: Mapping[str, tuple[Any, str]]
+    section_sources: Mapping[str, str] = dataclasses.field(default_factory=dict)
+
+    def raw(self) -> dict[str, dict[str, Any]]:
+        """The preset as a partial nested configuration (what a TOML file would hold)."""
+        out: dict[str, dict[str, Any]] = {}
+        for dotted, (value, _) in self.values.items():
+            section, _, name = dotted.partition(".")
+            out.setdefault(section, {})[name] = value
+        return out
+
+    def notes(self) -> dict[str, str]:
+        """Dotted key -> the source note of its value, or the unknown mark."""
+        out = {}
+        for section in SECTIONS:
+            for key in keys_of(section):
+                dotted = f"{section}.{key.name}"
+                if dotted in self.values:
+                    out[dotted] = "source: " + self.values[dotted][1]
+                else:
+                    out[dotted] = ("source: " + self.section_sources[section] if section in self.section_sources
+                                   else UNKNOWN)
+        return out
+
+
+_OPERATING_POINT = {"scene": "the operating point, not a property of the camera: set it to your measurement's "
+                             "(default: thesis §5.5.1)"}
+_THESIS = "Thesis 'Time-of-Flight 3D-Camera Performance Modeling' (Graz, 2018)"
+_BAMJI = ("C. S. Bamji et al., 'A 0.13 um CMOS System-on-Chip for a 512 x 424 Time-of-Flight Image Sensor With "
+          "Multi-Frequency Photo-Demodulation up to 130 MHz and 2 GS/s ADC', IEEE J. Solid-State Circuits 50(1), "
+          "303-319, 2015 (abstract)")
+_OPT8241 = "Texas Instruments, OPT8241 3D Time-of-Flight Sensor, datasheet SBAS704B (June 2015, revised October 2015)"
+
+PRESETS: dict[str, Preset] = {
+    "thesis": Preset(
+        name="thesis",
+        title="The thesis' verification camera (pmd 2-tap PMD sensor, 224 x 172 pixels; thesis §5.5, Table A.1)",
+        references={"thesis": _THESIS},
+        values={},
+        section_sources={
+            "illumination": "thesis Table 4.2",
+            "scene": "thesis Table 4.3 (operating point of §5.5.1)",
+            "camera": "thesis Table 4.4",
+            "pixel": "thesis Table 4.5",
+            "illumination_waveform": "thesis Table 4.6 and §5.5.1 (gauss_extended order 15, 25 % duty, "
+                                     "80.32 MHz of Table A.1)",
+            "reference_waveform": "thesis Table 4.7",
+            "adc": "thesis Table 4.8",
+        },
+    ),
+    "kinect-v2": Preset(
+        name="kinect-v2",
+        title="Microsoft Kinect for Xbox One (Kinect v2) time-of-flight sensor, 512 x 424 pixels",
+        references={"bamji2015": _BAMJI},
+        values={
+            "camera.pixel_pitch_m": ([10e-6, 10e-6], "bamji2015: '10 um x 10 um pixel'"),
+            "camera.optical_area_m": ([5.12e-3, 4.24e-3], "bamji2015: 512 x 424 pixels of 10 um"),
+            "camera.fill_factor": (1.0, "bamji2015 quotes the pixel's responsivity (fill factor inside it; "
+                                        "tofjax's reading, docs/model.md)"),
+            "pixel.photo_responsivity_a_per_w": (0.14, "bamji2015: 'responsivity of 0.14 A/W at 860 nm'"),
+            "illumination.wavelength_m": (860e-9, "bamji2015: the wavelength of the quoted responsivity"),
+            "pixel.demodulation_contrast": (0.67, "bamji2015: 'modulation contrast of 67 % at 50 MHz'"),
+            "illumination_waveform.modulation_frequency_hz": (
+                50e6, "bamji2015: the frequency of the quoted contrast (the camera runs several frequencies up to "
+                      "130 MHz; which, and their contrasts, the abstract does not say)"),
+            "adc.resolution_bits": (10, "bamji2015: '2 GS/s 10 bit signal path'"),
+        },
+        section_sources=_OPERATING_POINT,
+    ),
+    "ti-opt8241": Preset(
+        name="ti-opt8241",
+        title="Texas Instruments OPT8241 3D time-of-flight sensor, 320 x 240 pixels",
+        references={"opt8241": _OPT8241},
+        values={
+            "camera.pixel_pitch_m": ([15e-6, 15e-6], "opt8241 Features: 'Pixel Pitch: 15 um'"),
+            "camera.optical_area_m": ([4.8e-3, 3.6e-3], "opt8241 Features: '320 x 240 Array' of 15 um"),
+            "camera.fill_factor": (1.0, "opt8241 quotes the pixel's responsivity (fill factor inside it; "
+                                        "tofjax's reading, docs/model.md)"),
+            "pixel.photo_responsivity_a_per_w": (0.35, "opt8241 Features: 'Responsivity: 0.35 A/W at 850 nm'"),
+            "illumination.wavelength_m": (850e-9, "opt8241: the wavelength of the quoted responsivity"),
+            "pixel.demodulation_contrast": (0.45, "opt8241 Features: 'Demodulation Contrast: 45% at 50 MHz'"),
+            "illumination_waveform.modulation_frequency_hz": (
+                50e6, "opt8241: the frequency of the quoted contrast (allowed: 'Demodulation Frequency: 10 MHz to "
+                      "100 MHz')"),
+            "adc.resolution_bits": (12, "opt8241 Features: '12-Bit Phase Correlation Data'"),
+        },
+        section_sources=_OPERATING_POINT,
+    ),
+}
+
+
+def preset(name: str) -> Preset:
+    """The preset called ``name``; a ``ValueError`` naming the allowed names otherwise."""
+    if name not in PRESETS:
+        raise ValueError(f"preset = {name!r} is not known: allowed " + ", ".join(repr(p) for p in PRESETS)
+                         + suggest(name, PRESETS))
+    return PRESETS[name]
+
+
+def preset_config(name: str):
+    """The validated :class:`tofjax.Config` of a preset (its values over the defaults)."""
+    from ._config import config_from_dict
+
+    return config_from_dict(preset(name).raw(), where=f"preset {name}")
+
+
+def preset_text(name: str) -> str:
+    """The full TOML of a preset: every key with its meaning and range, and then its source or
+    the mark that the sources leave it unknown."""
+    from ._config import render_toml
+
+    p = preset(name)
+    head = [f"# tofjax camera configuration, preset {p.name!r}: {p.title}.", "# References:"]
+    head += [f"#   [{tag}] {citation}" for tag, citation in p.references.items()]
+    head.append("# Every key names its source; 'unknown' keys keep the thesis camera's value and are guesses for "
+                "this camera.")
+    return render_toml(preset_config(name).values, notes=p.notes(), header=head)
