@@ -38,6 +38,9 @@ def test_issue_sections_and_keys_exist():
         "reference_waveform": ["shape", "duty_cycle", "gauss_order", "fourier_order"],
         "adc": ["enabled", "v_ref_pos_v", "v_ref_neg_v", "resolution_bits", "offset_error_lsb",
                 "gain_error_percent_fsr", "integral_nonlinearity_lsb", "differential_nonlinearity_lsb"],
+        "frame": ["subpixel_samples", "illumination_falloff_exponent", "baseline_m", "relative_illumination_exponent",
+                  "vignetting", "prnu_sigma", "phase_offset_sigma_rad", "tap_asymmetry_sigma", "threshold_sigma",
+                  "seed"],
     }
     values = tj.Config().values
     assert set(values) == set(required)
@@ -133,7 +136,7 @@ def test_every_float_key_is_range_checked(key, value):
 def test_direct_module_construction_is_range_checked(key, value):
     from tofjax._params import SECTION_CLASSES
 
-    cls = SECTION_CLASSES[key.section]
+    cls = {**SECTION_CLASSES, "frame": tj.FrameSettings}[key.section]
     names = {f for f in cls.__dataclass_fields__}
     if key.name not in names:
         return  # sweep-range keys live in the configuration only

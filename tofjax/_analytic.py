@@ -31,8 +31,11 @@ _NEAR = 3.0
 
 def full_well_fraction(n_a: Array, n_b: Array, full_well: Array) -> Array:
     """Expected charge of the fullest tap (photo + dark electrons, before SBI and saturation) over
-    the full well N_sat, per operating point: SBI engages or the tap saturates above 1 (§3.2.5)."""
-    return jnp.max(jnp.maximum(n_a, n_b), axis=-1) / full_well
+    the full well N_sat, per operating point: SBI engages or the tap saturates above 1 (§3.2.5).
+    ``full_well``: a scalar, or one per point with a trailing axis of 1 (a frame's pixels)."""
+    if jnp.ndim(full_well) == 0:
+        return jnp.max(jnp.maximum(n_a, n_b), axis=-1) / full_well
+    return jnp.max(jnp.maximum(n_a, n_b) / full_well, axis=-1)
 
 
 def unwrap_if_sweep(phase: Array, keep: Array) -> Array:

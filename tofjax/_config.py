@@ -52,6 +52,14 @@ class Config:
         return Params(**parts)
 
     @property
+    def frame(self):
+        """The ``[frame]`` section as :class:`tofjax.FrameSettings` (the array's optics and fixed
+        pattern, for :func:`tofjax.predict_frame` and :func:`tofjax.render_frame`)."""
+        from ._frame import frame_settings
+
+        return frame_settings(self.values["frame"])
+
+    @property
     def phase_images_per_integration_time(self) -> int:
         """Phase images one configured integration time covers (``scene.integration_time_per``)."""
         return phase_images_per_count(self.values["scene"]["integration_time_per"],
@@ -180,6 +188,7 @@ _SECTION_TITLES = {
     "illumination_waveform": "Emitted waveform (Table 4.6, Fig 4.2)",
     "reference_waveform": "Pixel reference (demodulation) waveform (Table 4.7)",
     "adc": "Analogue-to-digital converter (Table 4.8, Fig 4.11)",
+    "frame": "The whole pixel array: optics off axis and fixed-pattern effects (thesis §6.1.1-6.1.2; tofjax render)",
 }
 
 

@@ -46,7 +46,7 @@ _MAIN_KEYS = ("scene.background", "scene.samples", "pixel.iterations",
               *(f"scene.{k}" for pair in SWEEP_RANGE_KEYS.values() for k in pair))
 _TAB_SECTIONS = {
     "Pixel": ("pixel", "illumination_waveform", "reference_waveform"),
-    "Scene & Camera": ("illumination", "scene", "camera"),
+    "Scene & Camera": ("illumination", "scene", "camera", "frame"),
     "Physical & ADC": ("adc",),
 }
 _CONSTANT_UNITS = {"boltzmann_j_per_k": "J/K", "elementary_charge_c": "C", "speed_of_light_m_per_s": "m/s",

@@ -61,11 +61,23 @@ class PointConstants(eqx.Module):
     ref_phase: Array  # (points,) phase of the noise-free frame
     ref_amp: Array  # (points,) amplitude of the noise-free frame
     index: Array  # (points,) uint32 counter word of the point
+    full_well_e: Array | None = None  # (points,) each point's own full well (a frame's pixels), else the chain's
 
 
-def point_constants(chain: Chain, charges: TapCharges, index: Array) -> PointConstants:
-    """Per-point constants of the frames from the expected charges (flattened points)."""
-    noise, limit, readout = chain.noise, chain.limit, chain.readout
+def _limit(chain: Chain, full_well_e: Array | None, frames: bool):
+    """The chain's limit, with each point's own full well ``(points,)`` where given, shaped for
+    charges ``(points, phases)`` or (``frames``) ``(phases, points, frames)``."""
+    if full_well_e is None:
+        return chain.limit
+    well = full_well_e[None, :, None] if frames else full_well_e[:, None]
+    return eqx.tree_at(lambda lim: lim.full_well_e, chain.limit, well)
+
+
+def point_constants(chain: Chain, charges: TapCharges, index: Array, full_well_e: Array | None = None) -> PointConstants:
+    """Per-point constants of the frames from the expected charges (flattened points);
+    ``full_well_e`` ``(points,)``: each point's own full well (default: the chain's)."""
+    noise, readout = chain.noise, chain.readout
+    limit = _limit(chain, full_well_e, frames=False)
     n_a, n_b = charges.a, charges.b
     var_a, var_b = noise.variance_e2(charges, BEFORE_LIMIT)
     post_a, post_b = noise.variance_e2(charges, AFTER_LIMIT)
@@ -80,6 +92,7 @@ def point_constants(chain: Chain, charges: TapCharges, index: Array) -> PointCon
         sd_fast=t(jnp.sqrt(var_a + var_b + post_a + post_b)), linear=jnp.all(linear, axis=-1),
         sbi_fixed=jnp.any(always, axis=-1), ref_phase=_depth.atan2(im, re),
         ref_amp=_depth.amplitude_scale(chain.n_phases) * jnp.sqrt(re * re + im * im), index=index,
+        full_well_e=full_well_e,
     )
 
 
@@ -100,7 +113,7 @@ def draw_frames(chain: Chain, c: PointConstants, key: tuple[Array, Array], first
     ``stream`` separates the random streams of several chains (one per modulation frequency);
     ``linear`` (points,) overrides ``c.linear``, the points that take the one-draw path (pass it
     from outside a ``vmap`` so that the choice of path stays a branch)."""
-    limit, readout = chain.limit, chain.readout
+    limit, readout = _limit(chain, c.full_well_e, frames=True), chain.readout
     n_phases = c.n_a.shape[0]
     frame = (first_frame + jnp.arange(n_frames, dtype=jnp.uint32))[None, :]
     point = c.index[:, None]

@@ -63,6 +63,18 @@ def split_between_taps(fraction_a: Float[Array, "*b phases"], contrast: Float[Ar
     return modulated * fraction_a + equal, modulated * (1.0 - fraction_a) + equal
 
 
+def scene_photon_irradiance(params: Params, illuminance_lx: Float[Array, "*b"]) -> Float[Array, "*b"]:
+    """Background photon irradiance on the target inside the filter's band, photons/s/m^2: the swept
+    lamp at ``illuminance_lx`` plus the extra sources at theirs (a mixture: photon irradiances add)."""
+    scene, ill, consts = params.scene, params.illumination, params.constants
+    photon_irr = background_photon_irradiance(scene.background, illuminance_lx, ill.wavelength_m,
+                                              scene.filter_half_width_m, consts)
+    for k, lamp in enumerate(scene.extra_backgrounds):
+        photon_irr = photon_irr + background_photon_irradiance(lamp, scene.extra_illuminances_lx[k], ill.wavelength_m,
+                                                               scene.filter_half_width_m, consts)
+    return photon_irr
+
+
 def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*b"],
            illuminance_lx: Float[Array, "*b"], integration_time_s: Float[Array, "*b"],
            dark_slopes_v_per_s: tuple[Array, Array] | None = None) -> TapCharges:
@@ -70,14 +82,10 @@ def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*
 
     ``dark_slopes_v_per_s``: the taps' own dark slopes (a fixed-pattern pixel), else the mean slope.
     """
-    scene, ill, consts = params.scene, params.illumination, params.constants
+    consts = params.constants
     active = active_electrons(params, distance_m, integration_time_s, waveform_mean(params.illumination_waveform))
-    photon_irr = background_photon_irradiance(scene.background, illuminance_lx, ill.wavelength_m,
-                                              scene.filter_half_width_m, consts)
-    for k, lamp in enumerate(scene.extra_backgrounds):  # a mixture: the sources' photon irradiances add
-        photon_irr = photon_irr + background_photon_irradiance(lamp, scene.extra_illuminances_lx[k], ill.wavelength_m,
-                                                               scene.filter_half_width_m, consts)
-    background = background_electrons(params, distance_m, photon_irr, integration_time_s)
+    background = background_electrons(params, distance_m, scene_photon_irradiance(params, illuminance_lx),
+                                      integration_time_s)
     # The reflected phase 4 pi f d / c (Eq 3.22) in periods.
     delay = 2.0 * params.illumination_waveform.modulation_frequency_hz * distance_m / consts.speed_of_light_m_per_s
     photo_a, photo_b = split_between_taps(correlation(delay), params.pixel.demodulation_contrast, active, background)

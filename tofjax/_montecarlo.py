@@ -21,13 +21,14 @@ from ._smooth import Smooth
 from ._sweep import Sweep, check_inputs
 
 
-def pixel_dark_slopes(params: Params, key: PRNGKeyArray) -> Array:
-    """Dark slopes (V/s) of taps A and B of one pixel drawn from the population: a gamma
-    distribution (positive) with the configured mean and pixel-to-pixel sigma."""
+def pixel_dark_slopes(params: Params, key: PRNGKeyArray, pixels: tuple[int, ...] = ()) -> Array:
+    """Dark slopes (V/s) of taps A and B, ``(2, *pixels)``, drawn from the population: a gamma
+    distribution (positive) with the configured mean and pixel-to-pixel sigma (the dark-signal
+    non-uniformity); ``pixels``: the shape of an array of pixels (``()``: one pixel)."""
     mean, sigma = params.pixel.dark_slope_mean_v_per_s, params.pixel.dark_slope_sigma_v_per_s
     ok = (mean > 0) & (sigma > 0)
     shape = jnp.where(ok, mean**2 / jnp.where(ok, sigma, 1.0) ** 2, 1.0)
-    draw = jr.gamma(key, shape, (2,)) * jnp.where(ok, sigma**2 / jnp.where(ok, mean, 1.0), 0.0)
+    draw = jr.gamma(key, shape, (2, *pixels)) * jnp.where(ok, sigma**2 / jnp.where(ok, mean, 1.0), 0.0)
     return jnp.where(ok, draw, mean)
 
 

@@ -195,6 +195,32 @@ KEYS: tuple[Key, ...] = (
        -1e4, 1e4),
     _k("adc", "differential_nonlinearity_lsb", "float", 0.8, "LSB",
        "peak step-width deviation (< 1: no missing codes)", 0.0, 1.0, hi_open=True),
+    # --- [frame]  the whole pixel array (thesis §6.1.1-6.1.2, future work; docs/model.md "Full frames")
+    _k("frame", "subpixel_samples", "int", 3, "1",
+       "rays per pixel along each axis (s x s sub-pixel samples): a pixel straddling a depth edge mixes both "
+       "surfaces (flying pixels)", 1, 16),
+    _k("frame", "illumination_falloff_exponent", "float", 0.0, "1",
+       "the illumination's irradiance on a plane perpendicular to its axis falls as cos^n of the off-axis angle "
+       "inside its FoV (0 = flat top, the thesis' spot); the FoV still holds peak_power_w", 0.0, 50.0),
+    _k("frame", "baseline_m", "pair", [0.0, 0.0], "m",
+       "position [x, y] of the illumination relative to the lens centre (x right, y up; axes parallel)", -1.0, 1.0),
+    _k("frame", "relative_illumination_exponent", "float", 4.0, "1",
+       "lens relative illumination cos^n of the field angle (4 = the cos^4 law; 0 = none)", 0.0, 8.0),
+    _k("frame", "vignetting", "float", 0.0, "1",
+       "fraction of the light lost at the image corner by mechanical vignetting, growing with the squared "
+       "image height (0 = none)", 0.0, 1.0, hi_open=True),
+    _k("frame", "prnu_sigma", "float", 0.01, "1",
+       "photo-response non-uniformity: pixel-to-pixel relative sigma of the responsivity (log-normal, mean 1)",
+       0.0, 0.5),
+    _k("frame", "phase_offset_sigma_rad", "float", 0.0, "rad",
+       "fixed-pattern phase offset: pixel-to-pixel sigma of the demodulation phase (0 = none)", 0.0, 1.0),
+    _k("frame", "tap_asymmetry_sigma", "float", 0.0, "1",
+       "pixel-to-pixel sigma of the taps' gain mismatch e (tap A collects 1 + e, tap B 1 - e of the photo charge)",
+       0.0, 0.15),
+    _k("frame", "threshold_sigma", "float", 0.0, "1",
+       "pixel-to-pixel relative sigma of the SBI threshold and full well", 0.0, 0.15),
+    _k("frame", "seed", "int", 0, "1",
+       "seed of the fixed-pattern draw: the same seed gives the same camera", 0, 2**31 - 1),
 )
 
 SECTIONS: tuple[str, ...] = tuple(dict.fromkeys(k.section for k in KEYS))

@@ -202,6 +202,9 @@ def build_parser() -> argparse.ArgumentParser:
     cfg.add_argument("--preset", choices=tuple(PRESETS),
                      help="a public camera: " + "; ".join(f"{n}: {p.title}" for n, p in PRESETS.items()))
     cfg.add_argument("--out", type=Path, help="write to this file instead of standard output (its directory is made)")
+    from . import render_cli
+
+    render_cli.register(sub)
     for ep in sorted(entry_points(group="tofjax.commands"), key=lambda e: e.name):
         ep.load()(sub)
     return parser

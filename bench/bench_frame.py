@@ -1,0 +1,171 @@
+"""Full frames (issue 13): tofjax against a NumPy implementation of the same per-pixel chain and the
+random-number floor, on this machine, in one run (cases interleaved, medians and ratios).
+
+The scene is a wall tilted by 30 degrees at 1.2 m on the axis, 3 x 3 rays per pixel (9 returns per
+pixel); its returns are computed once (not timed: a scene is rendered many times). Timed per call,
+on both sides: the exposure of every pixel from its returns (etendue, the tabulated correlation of
+each return, the phasor sum), then the noisy frames (noise, SBI, ADC, demodulation).
+
+- ``one``: one noisy frame per call (``render_frame(frames=1, keep_frames=1)``; NumPy: one frame);
+- ``batch``: 32 noisy frames per call, all kept (``render_frame(frames=32, keep_frames=32)``; NumPy:
+  the exposure once and 32 frames in one vectorised draw);
+- ``floor``: only the normals each side draws for those 32 frames (tofjax: one Philox normal per
+  phase image; NumPy: 4 PCG64 normals per phase image);
+- ``analytic``: the noise image (``predict_frame``), images per second.
+
+Targets (issue 13): 224 x 172 >= 100 frames/s and >= 2x NumPy; 640 x 480 >= 25 frames/s; the
+analytic noise image of 224 x 172 >= 1000 images/s.
+
+Run:  python bench/bench_frame.py [--repeats 7] [--quick] [--out bench/results/bench_frame.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+from pathlib import Path
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+import tofjax as tj
+from tofjax import scenes
+from tofjax._random import key_words, normals
+from tofjax._waveforms import waveform_mean
+
+sys.path.insert(0, str(Path(__file__).parent))
+from bench import interleaved, ready  # noqa: E402
+from numpy_baseline import Baseline  # noqa: E402
+
+BATCH = 32
+PITCH = 17.5e-6
+
+
+class NumpyFrame:
+    """The per-pixel chain in NumPy for a frame's returns: per-camera constants once (the baseline's
+    noise and ADC, tofjax's etendue map and lamp integral, as the baseline takes its lamp integral)."""
+
+    def __init__(self, params, settings, returns):
+        self.base = Baseline(params)
+        self.base.table()
+        rays = tj.frame_rays(params, settings, 1)
+        etendue = np.asarray(tj.pixel_etendue_m2_sr(params, settings, rays)).ravel()
+        ill, k, pix, scene = params.illumination, params.constants, params.pixel, params.scene
+        e_photon = float(k.planck_j_s * k.speed_of_light_m_per_s / ill.wavelength_m)
+        qe = float(pix.photo_responsivity_a_per_w) * e_photon / float(k.elementary_charge_c)
+        t = float(scene.integration_time_s)
+        emitted = float(ill.peak_power_w * waveform_mean(params.illumination_waveform))
+        self.per_radiance = (emitted * etendue * t / e_photon * qe)[:, None]  # electrons per unit radiance/W
+        photon_irr = float(tj.background_photon_irradiance(scene.background, scene.illuminance_lx, ill.wavelength_m,
+                                                           scene.filter_half_width_m, k))
+        self.background = photon_irr / np.pi * etendue * t * qe  # x ambient reflectivity
+        self.dark = self.base.dark_per_s * t
+        self.f_over_c = float(params.illumination_waveform.modulation_frequency_hz / k.speed_of_light_m_per_s)
+        k_ret = returns.path_m.shape[-1]
+        self.path = np.asarray(returns.path_m).reshape(-1, k_ret)
+        self.radiance = np.asarray(returns.radiance_per_w).reshape(-1, k_ret)
+        self.ambient = np.asarray(returns.ambient_reflectivity).ravel()
+        self.shape = returns.shape
+
+    def expected(self):
+        b = self.base
+        per_return = self.radiance * self.per_radiance  # (pixels, k)
+        delays, values = b.table()
+        delay = (self.path * self.f_over_c) % 1.0
+        frac = np.stack([np.interp(delay, delays, values[:, j]) for j in range(b.n_phases)], axis=-1)
+        signal = per_return.sum(axis=1)
+        modulated = b.contrast * np.einsum("pk,pkj->pj", per_return, frac)
+        equal = (0.5 * (1.0 - b.contrast) * signal + 0.5 * self.ambient * self.background + self.dark)[:, None]
+        return modulated + equal, b.contrast * signal[:, None] - modulated + equal
+
+    def frames(self, rng, n_frames: int):
+        n_a, n_b = self.expected()
+        codes, valid = self.base._frames(rng, n_a, n_b, n_frames)
+        phase, amp = self.base._demodulate(codes)
+        depth = np.where(valid, np.mod(phase, 2 * np.pi) * (self.base.d_u / (2 * np.pi)), np.nan)
+        return depth.reshape(self.shape + (n_frames,))
+
+
+def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
+    rows, cols = size
+    p = eqx.tree_at(lambda q: q.camera.optical_area_m, tj.Params(), jnp.array([cols * PITCH, rows * PITCH]))
+    s = tj.FrameSettings()
+    returns = ready(tj.scene_returns(p, s, scenes.tilted_plane(1.2, 30.0)))
+    n_px = rows * cols
+    words = key_words(jax.random.key(5))
+    floor_jax = jax.jit(lambda f0: jnp.sum(normals(words, f0 + jnp.arange(BATCH, dtype=jnp.uint32)[None, :],
+                                                   jnp.arange(n_px, dtype=jnp.uint32)[:, None], 0, 4)))
+    cases = {
+        "tofjax_one": lambda i: ready(tj.render_frame(p, s, returns, jax.random.key(i + 3), 1, keep_frames=1)
+                                      .result.depth_m),
+        "tofjax_batch": lambda i: ready(tj.render_frame(p, s, returns, jax.random.key(i + 3), BATCH,
+                                                        keep_frames=BATCH).result.depth_m),
+        "tofjax_analytic": lambda i: ready(tj.predict_frame(p, s, returns).depth_std_m),
+        "floor_tofjax_normals": lambda i: ready(floor_jax(jnp.uint32(BATCH * (i + 2)))),
+    }
+    if with_numpy:
+        npf = NumpyFrame(p, s, returns)
+        rng = np.random.default_rng(2)
+        cases["numpy_one"] = lambda i: npf.frames(rng, 1)
+        cases["numpy_batch"] = lambda i: npf.frames(rng, BATCH)
+        cases["floor_numpy_normals"] = lambda i: rng.standard_normal((4, n_px, BATCH, 4))
+    t = interleaved(cases, repeats)
+    out = {"seconds": t, "frames_per_s": {"tofjax_one": 1 / t["tofjax_one"], "tofjax_batch": BATCH / t["tofjax_batch"]},
+           "analytic_images_per_s": 1 / t["tofjax_analytic"],
+           "ratios": {"tofjax_batch/floor_tofjax_normals": t["tofjax_batch"] / t["floor_tofjax_normals"]}}
+    if with_numpy:
+        out["frames_per_s"].update(numpy_one=1 / t["numpy_one"], numpy_batch=BATCH / t["numpy_batch"])
+        out["ratios"].update({"numpy_one/tofjax_one": t["numpy_one"] / t["tofjax_one"],
+                              "numpy_batch/tofjax_batch": t["numpy_batch"] / t["tofjax_batch"],
+                              "numpy_batch/floor_numpy_normals": t["numpy_batch"] / t["floor_numpy_normals"]})
+        mc = tj.render_frame(p, s, returns, jax.random.key(0), BATCH, keep_frames=BATCH)
+        d_np = npf.frames(np.random.default_rng(0), BATCH)
+        std_tj = np.asarray(jnp.nanstd(jnp.moveaxis(mc.frames_radial_m, 0, -1), axis=-1))
+        out["noise_image_median_ratio_numpy/tofjax"] = float(np.nanmedian(np.nanstd(d_np, axis=-1) / std_tj))
+    return out
+
+
+def table(r: dict) -> str:
+    lines = [f"{'case':<34}{'tofjax':>16}{'NumPy':>14}{'ratio':>10}  target"]
+    for name, target in (("frame_224x172", (">= 100 fps, >= 2x", ">= 1000/s")), ("frame_640x480", (">= 25 fps", ""))):
+        if name not in r:
+            continue
+        c, size = r[name], name[6:]
+        fps = c["frames_per_s"]
+        for kind in ("one", "batch"):
+            ratio = c["ratios"].get(f"numpy_{kind}/tofjax_{kind}")
+            lines.append(f"{size + ' noisy frames, ' + (str(BATCH) + ' per call' if kind == 'batch' else '1 per call'):<34}"
+                         f"{fps[f'tofjax_{kind}']:>12.0f} fps{fps.get(f'numpy_{kind}', float('nan')):>10.0f} fps"
+                         f"{(f'{ratio:.1f}x' if ratio else '-'):>10}  {target[0]}")
+        lines.append(f"{size + ' analytic noise image':<34}{c['analytic_images_per_s']:>9.0f} images/s{'':>14}{'':>10}  "
+                     f"{target[1]}")
+        lines.append(f"{size + ' batch / its normals (floor)':<34}{c['ratios']['tofjax_batch/floor_tofjax_normals']:>15.1f}x"
+                     + (f"{c['ratios']['numpy_batch/floor_numpy_normals']:>13.1f}x" if 'numpy_batch/floor_numpy_normals'
+                        in c['ratios'] else ""))
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--quick", action="store_true", help="224 x 172 only")
+    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "bench_frame.json")
+    args = parser.parse_args()
+    results = {"platform": platform.platform(), "cpu_count": os.cpu_count(), "jax": jax.__version__,
+               "numpy": np.__version__, "device": str(jax.devices()[0]), "repeats": args.repeats, "batch": BATCH}
+    results["frame_224x172"] = case((172, 224), args.repeats)
+    if not args.quick:
+        results["frame_640x480"] = case((480, 640), max(3, args.repeats // 2))
+    print(table(results))
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(results, indent=2))
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()

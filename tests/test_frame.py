@@ -1,0 +1,332 @@
+"""Full frames (tofjax._frame, _scene, _returns, _pattern; docs/model.md "Full frames"): the pixel on
+the axis is the centre-pixel model, the closed forms of the optics across the array, phasor sums of
+returns, flying pixels from sub-pixel coverage, the fixed pattern's statistics, gradients through the
+scene, NPZ/PLY round trips, the render command and sharding over devices.
+
+One small camera (31 x 21 pixels: odd, so a pixel sits on the axis) for every model evaluation."""
+
+import dataclasses
+import os
+import subprocess
+import sys
+import textwrap
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import tofjax as tj
+from tofjax import frameio, scenes
+from tofjax._frame import frame_charges, _frame_chain
+from tofjax._pattern import mean_pattern
+
+PITCH = 17.5e-6
+COLS, ROWS = 31, 21
+CENTRE = (ROWS // 2, COLS // 2)
+
+
+def small(params=None):
+    p = tj.Params() if params is None else params
+    return eqx.tree_at(lambda q: q.camera.optical_area_m, p, jnp.array([COLS * PITCH, ROWS * PITCH]))
+
+
+@pytest.fixture(scope="module")
+def params():
+    return small()
+
+
+@pytest.fixture(scope="module")
+def one_ray():
+    return tj.FrameSettings(subpixel_samples=1)
+
+
+def charges(params, settings, returns, pattern=None):
+    pattern = mean_pattern(params, returns.shape) if pattern is None else pattern
+    return frame_charges(_frame_chain(params, None, 10**6, pattern), settings, returns, pattern)
+
+
+def test_the_pixel_on_the_axis_is_the_centre_pixel_model(params, one_ray):
+    """Same electrons, same noise: every expected quantity of the axis pixel of a wall at d equals
+    tj.predict at distance d (the thesis' centre pixel), to rounding."""
+    d = 1.3
+    frame = tj.predict_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(d, 0.9)))
+    centre = tj.predict(params, tj.Sweep("distance", [d]))
+    r = frame.result
+    for name in ("tap_a_e", "tap_b_e", "code_mean", "depth_mean_m", "depth_std_m", "amplitude_mean_lsb",
+                 "amplitude_std_lsb", "intensity_e"):
+        np.testing.assert_allclose(np.asarray(getattr(r, name))[CENTRE], np.asarray(getattr(centre, name))[0],
+                                   rtol=1e-12, err_msg=name)
+    np.testing.assert_allclose(r.noise.total_e[CENTRE], centre.noise.total_e[0], rtol=1e-12)
+    np.testing.assert_allclose(frame.radial_true_m[CENTRE], d, rtol=1e-15)
+    assert int(frame.flags[CENTRE]) == 0
+
+
+def test_monte_carlo_frames_match_the_analytic_noise_image(params, one_ray):
+    """The Monte Carlo std over 300 frames against the analytic noise image, pixel by pixel: the
+    ratio's spread is what 300 frames allow (relative std error 1/sqrt(2 * 299) = 4.1 %)."""
+    returns = tj.scene_returns(params, one_ray, scenes.wall(1.3, 0.9))
+    mc = tj.render_frame(params, one_ray, returns, jax.random.key(1), 300, keep_frames=2)
+    an = tj.predict_frame(params, one_ray, returns)
+    ratio = np.asarray(mc.depth_std_m / an.depth_std_m)
+    assert abs(np.mean(ratio) - 1.0) < 3 * 0.041 / np.sqrt(ratio.size) + 0.005  # the mean of 651 ratios
+    assert 0.03 < np.std(ratio) < 0.055
+    assert mc.frames_radial_m.shape == (2, ROWS, COLS)
+    np.testing.assert_allclose(mc.radial_m, an.radial_m, atol=4 * float(np.max(an.depth_std_m)) / np.sqrt(300))
+
+
+def test_a_flat_wall_falls_off_as_profile_times_cos4_times_incidence(params):
+    """Signal across a wall at d, against the closed form: on-plane irradiance cos^n(phi) / (S_n d^2)
+    (the profile, with the wall's incidence and range folded in), times cos^4(phi) of the lens, with
+    S_n = pi ((1 + T^2)^(1 - n/2) - 1) / (1 - n/2) for a circular FoV of half-angle tan T. Pixels
+    outside the illumination's cone get nothing."""
+    n = 2.5
+    p = eqx.tree_at(lambda q: q.illumination.fov_deg, params, jnp.asarray(20.0))
+    s = tj.FrameSettings(subpixel_samples=1, illumination_falloff_exponent=n)
+    frame = tj.predict_frame(p, s, tj.scene_returns(p, s, scenes.wall(2.0, 0.9)))
+    signal = np.asarray(frame.result.noise.signal_e)
+    flat = tj.FrameSettings(subpixel_samples=1)
+    axis = float(tj.predict_frame(p, flat, tj.scene_returns(p, flat, scenes.wall(2.0, 0.9))).result.noise.signal_e[CENTRE])
+    cos_phi = np.asarray(frame.direction)[..., 2]
+    t = np.tan(np.deg2rad(10.0))
+    s_n = np.pi * ((1 + t * t) ** (1 - n / 2) - 1) / (1 - n / 2)
+    s_0 = np.pi * t * t
+    inside = (1 / cos_phi**2 - 1) <= t * t
+    expected = axis * (s_0 / s_n) * cos_phi ** (n + 4)
+    assert 20 < inside.sum() < inside.size - 20  # both kinds of pixel are tested
+    np.testing.assert_allclose(signal[inside], expected[inside], rtol=1e-12)
+    assert np.all(signal[~inside] == 0.0)
+
+
+def test_incidence_angle_and_baseline(params, one_ray):
+    """A wall tilted by a: the axis pixel's signal is cos(a) of the untilted wall's (Lambert at the
+    same range). A baseline b moves the illumination: the axis pixel's path is d + sqrt(d^2 + b^2)."""
+    flat = tj.predict_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(1.5)))
+    tilted = tj.predict_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.tilted_plane(1.5, 40.0)))
+    np.testing.assert_allclose(tilted.result.noise.signal_e[CENTRE], np.cos(np.deg2rad(40.0))
+                               * flat.result.noise.signal_e[CENTRE], rtol=1e-12)
+    b = tj.FrameSettings(subpixel_samples=1, baseline_m=(0.3, 0.0))
+    returns = tj.scene_returns(params, b, scenes.wall(1.5))
+    np.testing.assert_allclose(returns.path_m[CENTRE][0], 1.5 + np.hypot(1.5, 0.3), rtol=1e-14)
+
+
+def test_two_returns_are_the_phasor_sum(params, one_ray):
+    """Charges are linear in the returns: without background and dark signal, the differential
+    phasor of a pixel with two returns is the sum of the returns' phasors."""
+    p = eqx.tree_at(lambda q: (q.scene.illuminance_lx, q.pixel.dark_slope_mean_v_per_s), params, (0.0, 0.0))
+    shape = (ROWS, COLS)
+    radial = jnp.full(shape, 1.0)
+    one = lambda path, rad: tj.Returns(jnp.full(shape + (1,), path), jnp.full(shape + (1,), rad),  # noqa: E731
+                                       jnp.zeros(shape), radial)
+    a, b = one(2.0, 0.1), one(3.1, 0.04)
+    both = a + b
+    theta = np.asarray(tj.phase_steps(p.pixel.n_phases))
+
+    def phasor(r):
+        c = charges(p, one_ray, r)
+        return np.sum((np.asarray(c.photo_a) - np.asarray(c.photo_b)) * np.exp(1j * theta), axis=-1)
+
+    np.testing.assert_allclose(phasor(both), phasor(a) + phasor(b), rtol=1e-12)
+    assert both.path_m.shape == shape + (2,)
+
+
+def test_a_step_edge_gives_the_flying_pixels_the_subpixel_coverage_predicts(params):
+    """A board at 1 m left of x = e in front of a wall at 1.6 m, 4 x 4 rays per pixel. The coverage
+    (the fraction of a pixel's rays that meet the board) is computed here from the rays alone; the
+    pixels whose expected distance matches neither surface's (more than 3 mm from both, each
+    surface's own frame taken as its truth, so that the wiggling error cancels) are exactly those
+    with 0 < coverage < 1, and they read between the two."""
+    s = tj.FrameSettings(subpixel_samples=4)
+    f = float(tj.lens(params.camera).focal_length_m)
+    e = 1.0 * (3.3 * PITCH / f)  # the edge crosses column 15 + 3.3 at a third of the sub-pixel pitch
+    step = tj.predict_frame(params, s, tj.scene_returns(params, s, scenes.step_edge(1.0, 1.6, e)))
+    near = tj.predict_frame(params, s, tj.scene_returns(params, s, scenes.wall(1.0)))
+    far = tj.predict_frame(params, s, tj.scene_returns(params, s, scenes.wall(1.6)))
+    rays = np.asarray(tj.frame_rays(params, s).samples)
+    coverage = np.mean(rays[..., 0] / rays[..., 2] * 1.0 <= e, axis=-1)
+    m, mn, mf = (np.asarray(x.radial_m) for x in (step, near, far))
+    flying = (np.abs(m - mn) > 3e-3) & (np.abs(m - mf) > 3e-3)
+    mixed = (coverage > 0) & (coverage < 1)
+    assert mixed.sum() == ROWS  # one column straddles the edge
+    np.testing.assert_array_equal(flying, mixed)
+    assert np.all((m[mixed] > mn[mixed]) & (m[mixed] < mf[mixed]))
+
+
+def test_two_bounce_light_of_a_corner(params, one_ray):
+    """A concave corner (apex at 1.5 m, inside the unambiguity range): the two-bounce returns are
+    longer than the direct path, scale with the reflectivity squared (the direct ones with the
+    reflectivity), and make the walls read long (multipath), more near the apex than at the edges.
+    The apex column itself lies in both walls' planes, where the other wall is seen edge-on: no
+    two-bounce light."""
+    bright = tj.scene_returns(params, one_ray, scenes.corner(1.5, patches_per_side=8, reflectivity=0.8), bins=8)
+    dim = tj.scene_returns(params, one_ray, scenes.corner(1.5, patches_per_side=8, reflectivity=0.4), bins=8)
+    direct, indirect = np.asarray(bright.radiance_per_w[..., 0]), np.asarray(bright.radiance_per_w[..., 1:])
+    np.testing.assert_allclose(np.asarray(dim.radiance_per_w[..., 0]), 0.5 * direct, rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(dim.radiance_per_w[..., 1:]), 0.25 * indirect, rtol=1e-12)
+    lit = indirect > 0
+    off_apex = np.arange(COLS) != COLS // 2
+    assert lit.any(axis=-1)[:, off_apex].all()
+    assert np.max(indirect[:, COLS // 2]) < 1e-9 * np.max(indirect)
+    assert np.all(np.asarray(bright.path_m[..., 1:])[lit] > np.broadcast_to(np.asarray(bright.path_m[..., :1]),
+                                                                            lit.shape)[lit])
+    frame = tj.predict_frame(params, one_ray, bright)
+    plain = tj.predict_frame(params, one_ray, tj.Returns(bright.path_m[..., :1], bright.radiance_per_w[..., :1],
+                                                         bright.ambient_reflectivity, bright.radial_m))
+    bias = np.asarray(frame.radial_m - plain.radial_m)
+    assert np.all(bias[:, off_apex] > 0)
+    assert np.max(bias[:, 10:21]) > 3 * np.max(bias[:, [0, -1]])
+
+
+def test_fixed_pattern_statistics_and_reproducibility(default_params):
+    """Over a 172 x 224 camera the spatial sigmas are the configured ones (std error of a std over
+    38528 pixels: 0.36 %); the same seed gives the same camera, another seed another."""
+    s = tj.FrameSettings(prnu_sigma=0.05, phase_offset_sigma_rad=0.02, tap_asymmetry_sigma=0.03,
+                         threshold_sigma=0.04, seed=7)
+    shape = (172, 224)
+    pat = tj.draw_pattern(default_params, s, shape)
+    for x, sigma, mean in ((pat.gain, 0.05, 1.0), (pat.phase_offset_rad, 0.02, 0.0), (pat.tap_asymmetry, 0.03, 0.0),
+                           (pat.full_well_scale, 0.04, 1.0)):
+        x = np.asarray(x)
+        assert abs(np.std(x) / sigma - 1) < 0.02
+        assert abs(np.mean(x) - mean) < 4 * sigma / np.sqrt(x.size)
+    slopes = np.concatenate([np.ravel(pat.dark_slope_a_v_per_s), np.ravel(pat.dark_slope_b_v_per_s)])
+    assert abs(np.std(slopes) / float(default_params.pixel.dark_slope_sigma_v_per_s) - 1) < 0.02
+    again = tj.draw_pattern(default_params, s, shape)
+    assert all(np.array_equal(a, b) for a, b in zip(jax.tree_util.tree_leaves(pat), jax.tree_util.tree_leaves(again), strict=True))
+    other = tj.draw_pattern(default_params, dataclasses.replace(s, seed=8), shape)
+    assert not np.array_equal(pat.gain, other.gain)
+
+
+def test_fixed_pattern_effects_reach_the_frame(params, one_ray):
+    """A pixel's phase offset phi reads as a return whose path is longer by phi c / (2 pi f); PRNU
+    scales the signal pixel by pixel; a pixel with a lower full well is nearer to it."""
+    returns = tj.scene_returns(params, one_ray, scenes.wall(1.2))
+    shape = (ROWS, COLS)
+    offset = tj.draw_pattern(params, tj.FrameSettings(prnu_sigma=0.0, phase_offset_sigma_rad=0.05), shape)
+    drawn = tj.predict_frame(params, one_ray, returns, offset)
+    extra = np.asarray(offset.phase_offset_rad) * float(params.unambiguity_range_m) / np.pi  # phi c / (2 pi f)
+    longer = tj.Returns(returns.path_m + extra[..., None], returns.radiance_per_w, returns.ambient_reflectivity,
+                        returns.radial_m)
+    np.testing.assert_allclose(drawn.radial_m, tj.predict_frame(params, one_ray, longer).radial_m, rtol=1e-9)
+    assert np.std(extra) > 0.005
+    mean = tj.predict_frame(params, one_ray, returns)
+    for settings in (tj.FrameSettings(prnu_sigma=0.1), tj.FrameSettings(prnu_sigma=0.0, threshold_sigma=0.1)):
+        pat = tj.draw_pattern(params, settings, shape)
+        drawn = tj.predict_frame(params, one_ray, returns, pat)
+        np.testing.assert_allclose(drawn.result.noise.signal_e, pat.gain * mean.result.noise.signal_e, rtol=1e-12)
+    only_wells = eqx.tree_at(lambda q: q.full_well_scale, mean_pattern(params, shape), pat.full_well_scale)
+    drawn = tj.predict_frame(params, one_ray, returns, only_wells)
+    np.testing.assert_allclose(drawn.result.full_well_fraction * pat.full_well_scale, mean.result.full_well_fraction,
+                               rtol=1e-12)
+    assert np.std(np.asarray(pat.full_well_scale)) > 0.05
+
+
+def test_gradients_through_the_scene_match_finite_differences(params, one_ray):
+    """d(depth error)/d(wall distance) and d(depth noise)/d(reflectivity) of the axis pixel."""
+    def error(d):
+        f = tj.predict_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(d, 0.9)))
+        return f.radial_m[CENTRE] - d
+
+    def noise(rho):
+        f = tj.predict_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(1.3, rho)))
+        return f.depth_std_m[CENTRE]
+
+    for fn, x0 in ((error, 1.3), (noise, 0.6)):
+        g = float(jax.grad(fn)(x0))
+        h = 1e-5 * x0
+        fd = (float(fn(x0 + h)) - float(fn(x0 - h))) / (2 * h)
+        assert np.isfinite(g) and abs(g - fd) <= 1e-5 * abs(fd) + 1e-9, (g, fd)
+
+
+def test_returns_npz_round_trip_and_refusals(params, tmp_path, one_ray):
+    r = tj.scene_returns(params, one_ray, scenes.sphere(1.0, 0.2, 2.0))
+    path = tmp_path / "returns.npz"
+    tj.save_returns(path, r)
+    back = tj.load_returns(path, (ROWS, COLS))
+    assert all(np.array_equal(a, b) for a, b in zip(jax.tree_util.tree_leaves(r), jax.tree_util.tree_leaves(back), strict=True))
+    with pytest.raises(ValueError, match=r"path_m has 21 x 31 pixels, the camera 5 x 5"):
+        tj.load_returns(path, (5, 5))
+    bad = dict(path_m=np.ones((2, 2, 1)), radiance_per_w=-np.ones((2, 2, 1)))
+    np.savez(tmp_path / "bad.npz", **bad)
+    with pytest.raises(ValueError, match=r"bad.npz: radiance_per_w\[0, 0, 0\] = -1.0 is out of range"):
+        tj.load_returns(tmp_path / "bad.npz")
+    np.savez(tmp_path / "none.npz", x=np.ones(2))
+    with pytest.raises(ValueError, match="array 'path_m' is missing"):
+        tj.load_returns(tmp_path / "none.npz")
+
+
+def test_ply_round_trip(tmp_path):
+    pts = np.array([[0.0, 1.0, 2.0], [-0.5, 0.25, 3.0]])
+    frameio.write_ply(tmp_path / "p.ply", pts, np.array([5.0, 6.0]))
+    v = frameio.read_ply(tmp_path / "p.ply")
+    np.testing.assert_array_equal(np.stack([v["x"], v["y"], v["z"]], axis=-1), pts.astype(np.float32))
+    np.testing.assert_array_equal(v["intensity"], [5.0, 6.0])
+
+
+CONFIG = f"""
+[camera]
+optical_area_m = [{COLS * PITCH!r}, {ROWS * PITCH!r}]
+[frame]
+subpixel_samples = 2
+"""
+
+
+def _cli(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "tofjax.cli", *args], capture_output=True, text=True, cwd=cwd,
+                          env={**os.environ, "TOFJAX_CACHE_DIR": "off"})
+
+
+def test_render_command_writes_every_output(tmp_path):
+    cfg = tmp_path / "cam.toml"
+    cfg.write_text(CONFIG)
+    out = tmp_path / "out"
+    proc = _cli("render", "--scene", "box_on_floor:box_m=1.5", "--config", str(cfg), "--frames", "20",
+                "--keep-frames", "2", "--fixed-pattern", "--quiet", "--out", str(out), cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "21 x 31 pixels, 20 frames" in proc.stdout
+    data = np.load(out / "frame.npz")
+    assert data["frames_radial_m"].shape == (2, ROWS, COLS)
+    assert data["predicted_std_m"].shape == (ROWS, COLS)
+    good = int(np.sum(data["flags"] == 0))
+    assert len(frameio.read_ply(out / "points.ply")) == good > 0
+    assert {"radial_m.png", "predicted_std_mm.png", "error_mm.png", "report.html"} <= {p.name for p in out.iterdir()}
+    assert "data:image/png;base64" in (out / "report.html").read_text()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--scene", "walll"], "--scene 'walll' is not a built-in scene: allowed wall, "),
+    (["--scene", "wall:distance_m=-2"], "--scene wall: distance_m = -2 is out of range: allowed 0.01 <= value <= 1000"),
+    (["--scene", "wall:size=2"], "--scene wall: 'size' is not a parameter of wall: allowed distance_m, reflectivity"),
+    (["--scene", "wall", "--frames", "5", "--keep-frames", "6"], "--keep-frames = 6 is out of range"),
+    (["--scene", "missing.npz"], "--scene missing.npz: no such file"),
+    (["--scene", "wall", "--sun", "0,0"], "argument --sun: '0,0' is not a direction"),
+])
+def test_render_refuses_bad_input_in_one_line(tmp_path, args, message):
+    proc = _cli("render", *args, "--out", str(tmp_path / "o"), "--check", cwd=tmp_path)
+    assert proc.returncode == 2
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("tofjax: error:")]
+    assert len(errors) == 1 and message in errors[0] and "Traceback" not in proc.stderr
+
+
+def test_sharded_over_two_cpu_devices_equals_unsharded(tmp_path):
+    """Scenes sharded over 2 host devices (XLA_FLAGS=--xla_force_host_platform_device_count=2): the
+    same noise images as one device."""
+    script = textwrap.dedent(f"""
+        import jax, jax.numpy as jnp, numpy as np, equinox as eqx
+        import tofjax as tj
+        from tofjax import scenes
+        assert len(jax.devices()) == 2, jax.devices()
+        p = eqx.tree_at(lambda q: q.camera.optical_area_m, tj.Params(), jnp.array([{COLS * PITCH!r}, {ROWS * PITCH!r}]))
+        s = tj.FrameSettings(subpixel_samples=1)
+        d = jnp.array([0.8, 1.1, 1.7])
+        noise = lambda x: tj.predict_frame(p, s, tj.scene_returns(p, s, scenes.wall(x))).depth_std_m
+        sharded = tj.sharded_map(noise, d)
+        single = jnp.stack([noise(x) for x in d])
+        np.testing.assert_allclose(sharded, single, rtol=1e-12)
+        print("ok", sharded.shape, len(sharded.sharding.device_set) if hasattr(sharded, "sharding") else 0)
+    """)
+    env = {**os.environ, "XLA_FLAGS": os.environ.get("XLA_FLAGS", "") + " --xla_force_host_platform_device_count=2"}
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "ok (3, 21, 31)" in proc.stdout

@@ -1,0 +1,362 @@
+"""Full frames: the composed chain for every pixel of the array (thesis §6.1.1-6.1.3, future work;
+docs/model.md, "Full frames").
+
+A frame is the chain of :mod:`tofjax._chain` run with one operating point per pixel. Only the
+exposure differs from the centre pixel's: each pixel collects the returns of its scene
+(:mod:`tofjax._returns`) through the lens, with the camera equation's relative illumination,
+
+    flux = L x pi A_pixel k_lens cos^m(phi) (1 - v h^2) / (4 N^2)                    (Eqs 3.5-3.11)
+
+(L the radiance the pixel sees, phi its field angle, m = ``frame.relative_illumination_exponent``,
+h its image height over the half diagonal, v = ``frame.vignetting``, N the f-number); on the axis
+and with L = rho E / pi this is the thesis' rho E FF A k_lens / (4 N^2). The mixer sorts each return
+by its own delay (the phasors of several returns add), the fixed pattern (:mod:`tofjax._pattern`)
+scales, shifts and splits the charges and sets each pixel's full well, and from there noise, SBI,
+saturation, ADC and demodulation are the centre pixel's, per pixel: :func:`predict_frame` walks
+them with means and variances (the per-pixel noise image), :func:`render_frame` with Monte Carlo
+frames.
+"""
+
+from __future__ import annotations
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float, PRNGKeyArray
+
+from ._analytic import analytic, moments
+from ._chain import Chain, build_chain
+from ._frames import point_constants
+from ._mixer import TapCharges, scene_photon_irradiance
+from ._montecarlo import Prepared, assemble, check_counts, frames_step, run_blocks
+from ._noise import dark_electrons
+from ._optics import photon_energy_j, quantum_efficiency
+from ._params import Params, _check, _float, _static
+from ._pattern import PixelPattern, mean_pattern
+from ._random import key_words
+from ._result import Result
+from ._returns import Returns, direct_returns, two_bounce_returns
+from ._scene import Rays, SceneGeometry, pixel_rays, resolution, surface, surface_from_depth
+from ._smooth import Smooth
+from ._sweep import Sweep, check_inputs
+from ._waveforms import waveform_mean
+
+#: Bits of :attr:`FrameResult.flags`.
+FLAG_SATURATED = 1
+FLAG_LOW_SIGNAL = 2
+FLAG_NO_RETURN = 4
+FLAGS = {
+    FLAG_SATURATED: "saturated: the pixel or the ADC saturated (analytic: expected; Monte Carlo: in any frame)",
+    FLAG_LOW_SIGNAL: "low signal: the phase noise exceeds 0.3 rad (a camera's amplitude threshold would reject it)",
+    FLAG_NO_RETURN: "no return: the pixel's centre ray meets no surface of the scene (truth, not a measurement)",
+}
+#: Phase standard deviation above which a pixel is flagged as low signal, rad.
+LOW_SIGNAL_PHASE_STD_RAD = 0.3
+
+
+class FrameSettings(eqx.Module):
+    """The ``[frame]`` section: the array's optics and its fixed-pattern sigmas (schema docs).
+
+    ``subpixel_samples`` and ``seed`` are static; the rest are traced float leaves (a gradient
+    reaches them).
+    """
+
+    subpixel_samples: int = _static("frame", "subpixel_samples")
+    illumination_falloff_exponent: Float[Array, ""] = _float("frame", "illumination_falloff_exponent")
+    baseline_m: Float[Array, "2"] = _float("frame", "baseline_m")
+    relative_illumination_exponent: Float[Array, ""] = _float("frame", "relative_illumination_exponent")
+    vignetting: Float[Array, ""] = _float("frame", "vignetting")
+    prnu_sigma: Float[Array, ""] = _float("frame", "prnu_sigma")
+    phase_offset_sigma_rad: Float[Array, ""] = _float("frame", "phase_offset_sigma_rad")
+    tap_asymmetry_sigma: Float[Array, ""] = _float("frame", "tap_asymmetry_sigma")
+    threshold_sigma: Float[Array, ""] = _float("frame", "threshold_sigma")
+    seed: int = _static("frame", "seed")
+
+    def __check_init__(self):
+        _check(self, "frame")
+
+
+def frame_settings(values) -> FrameSettings:
+    """The :class:`FrameSettings` of a configuration's ``[frame]`` values (a mapping)."""
+    return FrameSettings(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in values.items()})
+
+
+def frame_shape(params: Params) -> tuple[int, int]:
+    """(rows, cols) of the pixel array (``camera.optical_area_m / camera.pixel_pitch_m``)."""
+    return resolution(params.camera)
+
+
+def frame_rays(params: Params, settings: FrameSettings, subpixel_samples: int | None = None,
+               shape: tuple[int, int] | None = None) -> Rays:
+    """The rays of every pixel of the camera (``subpixel_samples``: per axis, default the settings';
+    ``shape``: (rows, cols), default the camera's, which needs concrete camera values)."""
+    s = settings.subpixel_samples if subpixel_samples is None else subpixel_samples
+    return pixel_rays(params.camera, frame_shape(params) if shape is None else shape, s)
+
+
+@eqx.filter_jit
+def _scene_returns(params, settings, geometry, sun_direction, bins, shape):
+    rays = frame_rays(params, settings, shape=shape)
+    surf = surface(geometry, rays, sun_direction)
+    out = direct_returns(params.illumination, settings.illumination_falloff_exponent, settings.baseline_m, surf, rays)
+    if geometry.patches is not None:
+        out = out + two_bounce_returns(params.illumination, settings.illumination_falloff_exponent,
+                                       settings.baseline_m, surf, rays, geometry.patches, bins)
+    return out
+
+
+def scene_returns(params: Params, settings: FrameSettings, geometry: SceneGeometry, *, sun_direction=None,
+                  bins: int = 32) -> Returns:
+    """Every pixel's returns from a scene: the direct return of each sub-pixel ray and, for a scene
+    with patches (:func:`tofjax.scenes.corner`), its two-bounce light in ``bins`` returns.
+    ``sun_direction``: the background light's direction (:func:`tofjax._scene.surface`)."""
+    sun = None if sun_direction is None else jnp.asarray(sun_direction, dtype=float)
+    return _scene_returns(params, settings, geometry, sun, bins, frame_shape(params))
+
+
+def depth_returns(params: Params, settings: FrameSettings, depth_m, reflectivity, *, radial: bool = False) -> Returns:
+    """Every pixel's direct return from a depth map ``(rows, cols)`` (Z depth, or the radial
+    distance with ``radial=True``) and a reflectivity map or number; one ray per pixel."""
+    rays = frame_rays(params, settings, 1)
+    depth = jnp.asarray(depth_m, dtype=float)
+    if depth.shape != rays.image_height.shape:
+        raise ValueError(f"depth map has shape {depth.shape}, the camera {rays.image_height.shape} (rows, cols; "
+                         "camera.optical_area_m / camera.pixel_pitch_m)")
+    return _depth_returns(params, settings, depth, jnp.asarray(reflectivity, dtype=float), radial, depth.shape)
+
+
+@eqx.filter_jit
+def _depth_returns(params, settings, depth, reflectivity, radial, shape):
+    rays = frame_rays(params, settings, 1, shape)
+    surf = surface_from_depth(depth, reflectivity, rays, radial)
+    return direct_returns(params.illumination, settings.illumination_falloff_exponent, settings.baseline_m, surf, rays)
+
+
+def pixel_etendue_m2_sr(params: Params, settings: FrameSettings, rays: Rays) -> Float[Array, "rows cols"]:
+    """pi A_pixel FF k_lens cos^m(phi) (1 - v h^2) / (4 N^2): the flux on a pixel per unit radiance
+    of what it sees (module docstring), m^2 sr."""
+    cam = params.camera
+    area = cam.pixel_pitch_m[0] * cam.pixel_pitch_m[1] * cam.fill_factor
+    relative = rays.cos_field_angle ** settings.relative_illumination_exponent
+    vignette = 1.0 - settings.vignetting * rays.image_height**2
+    return jnp.pi * area * cam.k_lens * relative * vignette / (4.0 * cam.f_number**2)
+
+
+def frame_charges(chain: Chain, settings: FrameSettings, returns: Returns, pattern: PixelPattern) -> TapCharges:
+    """Expected tap electrons of every pixel at the scene's nominal illuminance and integration
+    time: ``(rows, cols, phases)`` (module docstring)."""
+    params = chain.params
+    scene, ill, consts, pixel = params.scene, params.illumination, params.constants, params.pixel
+    t = scene.integration_time_s
+    rays = frame_rays(params, settings, 1, returns.shape)
+    per_radiance = pixel_etendue_m2_sr(params, settings, rays) * pattern.gain  # flux per radiance, m^2 sr
+    to_electrons = t / photon_energy_j(ill.wavelength_m, consts) * quantum_efficiency(pixel, ill.wavelength_m, consts)
+    emitted = ill.peak_power_w * waveform_mean(params.illumination_waveform)
+    per_return = emitted * returns.radiance_per_w * (per_radiance * to_electrons)[..., None]  # (rows, cols, k)
+    background = scene_photon_irradiance(params, scene.illuminance_lx) * returns.ambient_reflectivity / jnp.pi \
+        * per_radiance * t * quantum_efficiency(pixel, ill.wavelength_m, consts)
+    # Each return's delay f * path / c in periods (Eq 3.22), plus the pixel's phase offset.
+    delay = params.illumination_waveform.modulation_frequency_hz * returns.path_m / consts.speed_of_light_m_per_s
+    a = chain.correlation(delay + (pattern.phase_offset_rad / (2.0 * jnp.pi))[..., None])  # (rows, cols, k, phases)
+    contrast = pixel.demodulation_contrast
+    signal = jnp.sum(per_return, axis=-1)
+    modulated = contrast * jnp.einsum("rck,rckp->rcp", per_return, a)  # the returns' phasors add (Eqs 3.19-3.21)
+    equal = (0.5 * (1.0 - contrast) * signal + 0.5 * background)[..., None]
+    photo_a = (modulated + equal) * (1.0 + pattern.tap_asymmetry)[..., None]
+    photo_b = (contrast * signal[..., None] - modulated + equal) * (1.0 - pattern.tap_asymmetry)[..., None]
+    dark_a = dark_electrons(pixel, t, consts, pattern.dark_slope_a_v_per_s)
+    dark_b = dark_electrons(pixel, t, consts, pattern.dark_slope_b_v_per_s)
+    return TapCharges(photo_a, photo_b, dark_a, dark_b, signal, background)
+
+
+class FrameResult(eqx.Module):
+    """A frame's per-pixel results, ``(rows, cols)`` leading axes.
+
+    **Fields:** ``result`` (a :class:`tofjax.Result` with one operating point per pixel: expected
+    and measured depth, its standard deviation, amplitude, intensity, noise budget, flags; Monte
+    Carlo frames, when kept, on the axis after the pixels); ``radial_true_m`` (the centre ray's true
+    distance, inf where it meets nothing); ``direction`` (each pixel's unit ray, ``(rows, cols,
+    3)``); ``pattern`` (the camera sample).
+
+    Measured distances are radial (along the pixel's ray, what a ToF pixel measures, wrapped to
+    the unambiguity range); ``z_m`` is the Z depth (the distance's projection on the optical axis).
+    """
+
+    result: Result
+    radial_true_m: Float[Array, "rows cols"]
+    direction: Float[Array, "rows cols 3"]
+    pattern: PixelPattern
+
+    @property
+    def method(self) -> str:
+        return self.result.method
+
+    @property
+    def radial_m(self) -> Array:
+        """Measured radial distance (analytic: expected; Monte Carlo: mean of the frames), m."""
+        return self.result.depth_mean_m
+
+    @property
+    def z_m(self) -> Array:
+        """Measured Z depth, m."""
+        return self.result.depth_mean_m * self.direction[..., 2]
+
+    @property
+    def z_true_m(self) -> Array:
+        return self.radial_true_m * self.direction[..., 2]
+
+    @property
+    def depth_std_m(self) -> Array:
+        """Per-pixel standard deviation of the radial distance, m (the noise image)."""
+        return self.result.depth_std_m
+
+    @property
+    def amplitude_lsb(self) -> Array:
+        return self.result.amplitude_mean_lsb
+
+    @property
+    def intensity_e(self) -> Array:
+        """Mean electrons per tap and phase image (the grey-value image)."""
+        return self.result.intensity_e
+
+    @property
+    def frames_radial_m(self) -> Array | None:
+        """The kept Monte Carlo frames' radial distances, ``(frames, rows, cols)`` (``None``: none kept)."""
+        d = self.result.depth_m
+        return None if d is None else jnp.moveaxis(d, -1, 0)
+
+    @property
+    def flags(self) -> Array:
+        """Bits of :data:`FLAGS` per pixel (0: a good pixel)."""
+        r = self.result
+        saturated = jnp.where(r.valid_fraction < 1.0, FLAG_SATURATED, 0)
+        phase_std = r.depth_std_m * 2.0 * jnp.pi / r.unambiguity_range_m
+        low = jnp.where(~(phase_std <= LOW_SIGNAL_PHASE_STD_RAD), FLAG_LOW_SIGNAL, 0)
+        none = jnp.where(jnp.isfinite(self.radial_true_m), 0, FLAG_NO_RETURN)
+        return (saturated | low | none).astype(jnp.int32)
+
+    def points_m(self, radial_m: Array | None = None) -> np.ndarray:
+        """The point cloud ``(n, 3)`` of the pixels without flags (x right, y up, z along the axis),
+        from the measured radial distances (or ``radial_m``)."""
+        radial = np.asarray(self.radial_m if radial_m is None else radial_m)
+        keep = (np.asarray(self.flags) == 0) & np.isfinite(radial)
+        return (radial[..., None] * np.asarray(self.direction))[keep]
+
+
+def _frame_chain(params: Params, smooth: Smooth | None, points: int, pattern: PixelPattern) -> Chain:
+    """The chain with each pixel's own full well ``(rows, cols, 1)``."""
+    chain = build_chain(params, smooth, points)
+    well = chain.limit.full_well_e * pattern.full_well_scale[..., None]
+    return eqx.tree_at(lambda c: c.limit.full_well_e, chain, well)
+
+
+def _sweep(params: Params, returns: Returns) -> Sweep:
+    """One operating point per pixel: its true distance (half the path where it meets nothing, for
+    the record only: the exposure comes from the returns) at the scene's illuminance and time."""
+    d = jnp.where(jnp.isfinite(returns.radial_m), returns.radial_m, 0.5 * params.unambiguity_range_m)
+    return Sweep("distance", d)
+
+
+def _pattern(params: Params, shape, pattern: PixelPattern | None) -> PixelPattern:
+    return mean_pattern(params, shape) if pattern is None else pattern
+
+
+def _check_frame(params, settings, returns):
+    check_inputs(params, Sweep("distance", [1.0]))
+    if not isinstance(settings, FrameSettings):
+        raise TypeError(f"settings must be a tofjax.FrameSettings, got {type(settings).__name__}")
+    if not isinstance(returns, Returns):
+        raise TypeError(f"returns must be tofjax.Returns, got {type(returns).__name__}")
+    if tuple(returns.shape) != frame_shape(params):
+        raise ValueError(f"the returns have {returns.shape[0]} x {returns.shape[1]} pixels, the camera "
+                         f"{frame_shape(params)[0]} x {frame_shape(params)[1]} (rows x cols)")
+
+
+def _direction(params, settings, shape):
+    return frame_rays(params, settings, 1, shape).centre
+
+
+@eqx.filter_jit
+def _predict_frame(params, settings, returns, pattern, smooth):
+    shape = returns.shape
+    pattern = _pattern(params, shape, pattern)
+    chain = _frame_chain(params, smooth, math.prod(shape) * returns.path_m.shape[-1], pattern)
+    sweep = _sweep(params, returns)
+    charges = frame_charges(chain, settings, returns, pattern)
+    result = analytic(chain, sweep, moments(chain, sweep, charges))
+    return FrameResult(result, returns.radial_m, _direction(params, settings, shape), pattern)
+
+
+def predict_frame(params: Params, settings: FrameSettings, returns: Returns, pattern: PixelPattern | None = None, *,
+                  smooth: Smooth | None = None) -> FrameResult:
+    """The analytic frame: every pixel's expected depth, amplitude and intensity and the standard
+    deviations propagated through the chain (:func:`tofjax.predict` per pixel): the noise image.
+
+    **Arguments:** ``params`` (the camera; ``scene.illuminance_lx`` and ``scene.integration_time_s``
+    set the operating point, the returns the geometry), ``settings`` (:class:`FrameSettings`),
+    ``returns`` (:func:`scene_returns`, :func:`depth_returns` or :func:`tofjax.load_returns`),
+    ``pattern`` (:func:`tofjax.draw_pattern`; ``None``: every pixel the mean pixel), ``smooth``.
+    """
+    _check_frame(params, settings, returns)
+    return _predict_frame(params, settings, returns, pattern, smooth)
+
+
+@eqx.filter_jit
+def _render_frame(params, settings, returns, key, frames, keep_frames, pattern, smooth, progress):
+    shape = returns.shape
+    n = math.prod(shape)
+    pattern = _pattern(params, shape, pattern)
+    chain = _frame_chain(params, smooth, n * returns.path_m.shape[-1], pattern)
+    sweep = _sweep(params, returns)
+    charges = frame_charges(chain, settings, returns, pattern)
+    flat = jax.tree_util.tree_map(lambda x: x.reshape((n,) + x.shape[2:]), charges)
+    consts = point_constants(chain, flat, jnp.arange(n, dtype=jnp.uint32),
+                             chain.limit.full_well_e.reshape(n))
+    sums, kept = run_blocks(frames_step(chain, key_words(key)), consts, n, frames, keep_frames, chain.n_phases,
+                            progress=progress)
+    result = assemble(chain, sweep, Prepared(charges, consts), sums, kept, frames)
+    return FrameResult(result, returns.radial_m, _direction(params, settings, shape), pattern)
+
+
+def render_frame(params: Params, settings: FrameSettings, returns: Returns, key: PRNGKeyArray, frames: int = 1, *,
+                 keep_frames: int = 0, pattern: PixelPattern | None = None, smooth: Smooth | None = None,
+                 progress: bool = False) -> FrameResult:
+    """Monte Carlo frames of a scene: ``frames`` noisy frames of every pixel through the chain
+    (:func:`tofjax.simulate` per pixel, the same random-number streams and chunking); the result
+    holds their per-pixel statistics (mean and standard deviation of the distance, amplitude,
+    valid fraction) and the first ``keep_frames`` frames whole (``FrameResult.frames_radial_m``).
+
+    Arguments as :func:`predict_frame`, plus ``key`` (a ``jax.random`` key; the same key gives the
+    same frames), ``frames`` and ``keep_frames`` (static) and ``progress``.
+    """
+    _check_frame(params, settings, returns)
+    n = math.prod(returns.shape)
+    check_counts(frames, keep_frames, n, params.pixel.n_phases)
+    return _render_frame(params, settings, returns, key, frames, keep_frames, pattern, smooth, progress)
+
+
+def sharded_map(fn, batch, *, devices=None):
+    """``fn`` over the leading axis of the pytree ``batch``, the batch split over JAX devices with
+    ``jax.sharding`` (every CPU core, GPU or host process JAX sees; docs/model.md "Scaling out"):
+    each device runs ``lax.map(fn, ...)`` over its share. The batch is padded to a multiple of the
+    device count with copies of its last element, and the padding dropped from the result."""
+    from jax.sharding import Mesh, PartitionSpec
+
+    devices = jax.devices() if devices is None else list(devices)
+    leaves = jax.tree_util.tree_leaves(batch)
+    size = leaves[0].shape[0]
+    count = len(devices)
+    padded = -(-size // count) * count
+
+    def pad(x):
+        x = jnp.asarray(x)
+        return jnp.concatenate([x, jnp.repeat(x[-1:], padded - size, axis=0)]) if padded > size else x
+
+    mesh = Mesh(np.array(devices), ("batch",))
+    spec = PartitionSpec("batch")
+    mapped = jax.jit(jax.shard_map(lambda b: jax.lax.map(fn, b), mesh=mesh, in_specs=spec, out_specs=spec))
+    out = mapped(jax.tree_util.tree_map(pad, batch))
+    return jax.tree_util.tree_map(lambda x: x[:size], out)

@@ -1,0 +1,220 @@
+"""The light each pixel of a frame receives: returns of (optical path, radiance), from the scene's
+direct light, its two-bounce light, or a transient renderer (docs/model.md, "Full frames").
+
+A **return** is light that left the illumination and reached a pixel along one path: its optical
+path length ``path_m`` (illumination -> scene -> ... -> lens; twice the distance for a direct return
+from a camera with no baseline) and the radiance the pixel sees from it, per watt of the
+illumination's peak power, ``radiance_per_w`` (W m^-2 sr^-1 per W). A pixel's returns add as
+phasors in the mixer; a pixel straddling a depth edge has the returns of both surfaces (flying
+pixels), a pixel in a corner the direct and the two-bounce ones (multipath). The NPZ format of
+:func:`save_returns` / :func:`load_returns` is this, so a transient renderer's output can be fed in.
+
+Direct light (thesis §3.1.1, Eqs 3.1-3.2 generalised off axis). The illumination's radiant intensity
+per watt is I(theta) = cos^n(theta) / (cos^3(theta) S), so that on a plane perpendicular to its axis
+the irradiance falls as cos^n(theta) (n = ``frame.illumination_falloff_exponent``; n = 0 is the
+thesis' flat spot) and the FoV holds the whole power (S = the integral of cos^n over the FoV's
+footprint on the plane at 1 m). A Lambertian surface at range r from the illumination, tilted by
+beta to it, has irradiance E = P I cos(beta) / r^2 and radiance L = rho E / pi.
+
+Two-bounce light. Each patch of the scene (:class:`tofjax._scene.Patches`) is lit directly and
+relights the surface a pixel sees: dE = L_patch cos(theta_patch) cos(theta_pixel) A_patch / s^2
+(s >= half the patch size; no occlusion between the patches and the surface, which holds in a concave
+corner). The patches' contributions to one pixel are binned by path length (``bins`` per pixel,
+radiance-weighted mean path per bin) to a few returns.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from ._params import Illumination
+from ._scene import Patches, Rays, Surface
+
+
+class Returns(eqx.Module):
+    """Every return of every pixel (module docstring), plus what the frame's truth and background need.
+
+    **Fields:**
+    - ``path_m`` ``(rows, cols, returns)``: optical path illumination -> scene -> lens, m.
+    - ``radiance_per_w`` ``(rows, cols, returns)``: the radiance the pixel sees along that path
+      (its average over the pixel), W m^-2 sr^-1 per W of peak illumination power; 0 = no return.
+    - ``ambient_reflectivity`` ``(rows, cols)``: the pixel's average of reflectivity x ambient
+      factor: the background radiance is this x (background irradiance) / pi.
+    - ``radial_m`` ``(rows, cols)``: the true distance along the pixel's centre ray to the first
+      surface (inf: none).
+    """
+
+    path_m: Float[Array, "rows cols returns"]
+    radiance_per_w: Float[Array, "rows cols returns"]
+    ambient_reflectivity: Float[Array, "rows cols"]
+    radial_m: Float[Array, "rows cols"]
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return tuple(self.radial_m.shape)
+
+    def __add__(self, other: Returns) -> Returns:
+        """Both sets of returns (the background and truth of ``self``)."""
+        return Returns(jnp.concatenate([self.path_m, other.path_m], axis=-1),
+                       jnp.concatenate([self.radiance_per_w, other.radiance_per_w], axis=-1),
+                       self.ambient_reflectivity, self.radial_m)
+
+
+# Gauss-Legendre nodes for the rectangular FoV's normalisation (smooth integrand; 48 nodes per axis are
+# exact to rounding for the exponents allowed).
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(48)
+
+
+def _tan_half(fov_deg: Array) -> Array:
+    return jnp.tan(jnp.deg2rad(fov_deg) / 2.0)
+
+
+def footprint_integral(illumination: Illumination, falloff_exponent) -> Array:
+    """S = the integral of cos^n(theta) over the FoV's footprint on a plane at 1 m, m^2 (n = 0:
+    pi tan^2(FoV/2) or 4 tan(h/2) tan(v/2), the thesis' spot area at 1 m, Eq 3.1)."""
+    n = jnp.asarray(falloff_exponent, dtype=float)
+    t = _tan_half(illumination.fov_deg)
+    if illumination.fov_deg.shape == ():
+        # integral over the disc of radius T of (1 + rho^2)^(-n/2) 2 pi rho d rho, in closed form
+        u = jnp.log1p(t * t)
+        m = 1.0 - 0.5 * n
+        small = jnp.abs(m) < 1e-8
+        m_safe = jnp.where(small, 1.0, m)
+        return jnp.pi * jnp.where(small, u, jnp.expm1(m_safe * u) / m_safe)
+    x = jnp.asarray(_GL_X) * t[0]
+    y = jnp.asarray(_GL_X) * t[1]
+    w = jnp.asarray(_GL_W)
+    f = (1.0 + x[:, None] ** 2 + y[None, :] ** 2) ** (-0.5 * n)
+    return t[0] * t[1] * jnp.sum(w[:, None] * w[None, :] * f)
+
+
+def intensity_per_w(illumination: Illumination, falloff_exponent, v: Float[Array, "*r 3"]) -> Float[Array, "*r"]:
+    """Radiant intensity of the illumination towards ``v`` (vectors from it, its axis +z), per watt of
+    peak power, W/sr/W: cos^n / (cos^3 S) inside the FoV, 0 outside (module docstring)."""
+    vz = v[..., 2]
+    ahead = vz > 0.0
+    vz_safe = jnp.where(ahead, vz, 1.0)
+    tx, ty = v[..., 0] / vz_safe, v[..., 1] / vz_safe
+    t = _tan_half(illumination.fov_deg)
+    if illumination.fov_deg.shape == ():
+        inside = tx * tx + ty * ty <= t * t
+    else:
+        inside = (jnp.abs(tx) <= t[0]) & (jnp.abs(ty) <= t[1])
+    cos2 = 1.0 / (1.0 + tx * tx + ty * ty)
+    n = jnp.asarray(falloff_exponent, dtype=float)
+    value = cos2 ** (0.5 * n - 1.5) / footprint_integral(illumination, n)
+    return jnp.where(ahead & inside, value, 0.0)
+
+
+def _illuminator(baseline_m) -> Array:
+    b = jnp.asarray(baseline_m, dtype=float)
+    return jnp.stack([b[0], b[1], jnp.zeros_like(b[0])])
+
+
+def direct_returns(illumination: Illumination, falloff_exponent, baseline_m, surface: Surface,
+                   rays: Rays) -> Returns:
+    """The direct return of every sub-pixel ray (module docstring); one return per ray."""
+    d = rays.samples
+    hit = surface.hit
+    t = jnp.where(hit, surface.t_m, 1.0)
+    v = t[..., None] * d - jnp.broadcast_to(_illuminator(baseline_m), d.shape)
+    r2 = jnp.sum(v * v, axis=-1)
+    r = jnp.sqrt(r2)
+    cos_beta = jnp.maximum(-jnp.sum(surface.normal * v, axis=-1) / r, 0.0)  # lit side = the side the camera sees
+    radiance = surface.reflectivity * intensity_per_w(illumination, falloff_exponent, v) * cos_beta / (jnp.pi * r2)
+    sub = d.shape[-2]
+    radiance = jnp.where(hit, radiance, 0.0) / sub
+    ambient = jnp.mean(jnp.where(hit, surface.reflectivity * surface.ambient, 0.0), axis=-1)
+    return Returns(jnp.where(hit, r + t, 0.0), radiance, ambient, surface.radial_m)
+
+
+def two_bounce_returns(illumination: Illumination, falloff_exponent, baseline_m, surface: Surface, rays: Rays,
+                       patches: Patches, bins: int = 32) -> Returns:
+    """Light that reaches each pixel's surface via one patch (module docstring), binned into ``bins``
+    returns per pixel by path length. Evaluated at the pixel's centre ray, one image row at a time."""
+    source = _illuminator(baseline_m)
+    v = patches.centre - source[None]
+    r_y2 = jnp.sum(v * v, axis=-1)
+    r_y = jnp.sqrt(r_y2)
+    cos_beta = jnp.maximum(-jnp.sum(patches.normal * v, axis=-1) / r_y, 0.0)
+    patch_radiance = patches.reflectivity * intensity_per_w(illumination, falloff_exponent, v) * cos_beta \
+        / (jnp.pi * r_y2)  # W m^-2 sr^-1 per W
+    min_s = 0.5 * jnp.sqrt(patches.area_m2)
+
+    def row(args):
+        t, normal, rho, d = args  # (cols,), (cols, 3), (cols,), (cols, 3)
+        hit = jnp.isfinite(t)
+        x = jnp.where(hit, t, 1.0)[:, None] * d
+        w = x[:, None, :] - patches.centre[None]  # patch -> surface point, (cols, m, 3)
+        s = jnp.maximum(jnp.linalg.norm(w, axis=-1), min_s[None])
+        cos_patch = jnp.maximum(jnp.sum(patches.normal[None] * w, axis=-1) / s, 0.0)
+        cos_pixel = jnp.maximum(-jnp.sum(normal[:, None, :] * w, axis=-1) / s, 0.0)
+        irradiance = patch_radiance[None] * cos_patch * cos_pixel * patches.area_m2[None] / (s * s)
+        radiance = jnp.where(hit[:, None], rho[:, None] * irradiance / jnp.pi, 0.0)
+        path = r_y[None] + s + jnp.where(hit, t, 0.0)[:, None]
+        lit = radiance > 0.0
+        lo = jnp.min(jnp.where(lit, path, jnp.inf), axis=-1, keepdims=True)
+        hi = jnp.max(jnp.where(lit, path, -jnp.inf), axis=-1, keepdims=True)
+        lo = jnp.where(jnp.isfinite(lo), lo, 0.0)
+        width = jnp.maximum(jnp.where(jnp.isfinite(hi), hi, 0.0) - lo, 1e-9)
+        index = jnp.clip(jnp.floor((path - lo) / width * bins), 0, bins - 1).astype(jnp.int32)
+        one_hot = jax.nn.one_hot(index, bins, dtype=float)  # (cols, m, bins)
+        total = jnp.einsum("cm,cmb->cb", radiance, one_hot)
+        mean_path = jnp.einsum("cm,cmb->cb", radiance * path, one_hot) / jnp.where(total > 0.0, total, 1.0)
+        return jnp.where(total > 0.0, mean_path, 0.0), total
+
+    path, radiance = jax.lax.map(row, (surface.centre_t_m, surface.centre_normal, surface.centre_reflectivity,
+                                       rays.centre))
+    return Returns(path, radiance, jnp.zeros(surface.radial_m.shape), surface.radial_m)
+
+
+def save_returns(path, returns: Returns) -> None:
+    """Write ``returns`` as NPZ: arrays ``path_m``, ``radiance_per_w`` (rows, cols, returns),
+    ``ambient_reflectivity`` and ``radial_m`` (rows, cols), and ``format = "tofjax-returns/1"``."""
+    np.savez_compressed(path, format=np.array("tofjax-returns/1"), path_m=np.asarray(returns.path_m),
+                        radiance_per_w=np.asarray(returns.radiance_per_w),
+                        ambient_reflectivity=np.asarray(returns.ambient_reflectivity),
+                        radial_m=np.asarray(returns.radial_m))
+
+
+def load_returns(path, shape: tuple[int, int] | None = None) -> Returns:
+    """Read an NPZ of returns (:func:`save_returns`'s arrays; ``ambient_reflectivity`` defaults to 0
+    and ``radial_m`` to half the first return's path). Raises ``ValueError`` with one line naming
+    the file and the array for a missing array, a wrong shape, or a negative or non-finite value;
+    ``shape``: the frame's (rows, cols) the file must match."""
+    name = str(path)
+    try:
+        data = np.load(path, allow_pickle=False)
+    except (OSError, ValueError) as err:
+        raise ValueError(f"{name}: not a readable NPZ file of returns ({err})") from None
+    with data:
+        arrays = {k: np.asarray(data[k]) for k in data.files}
+    for key in ("path_m", "radiance_per_w"):
+        if key not in arrays:
+            raise ValueError(f"{name}: array {key!r} is missing: a returns file holds path_m and radiance_per_w "
+                             "(rows, cols, returns), optionally ambient_reflectivity and radial_m (rows, cols)")
+    p, rad = arrays["path_m"].astype(float), arrays["radiance_per_w"].astype(float)
+    if p.ndim == 2:
+        p, rad = p[..., None], rad[..., None]
+    if p.ndim != 3 or p.shape != rad.shape:
+        raise ValueError(f"{name}: path_m has shape {p.shape} and radiance_per_w {rad.shape}: allowed equal shapes "
+                         "(rows, cols, returns)")
+    if shape is not None and p.shape[:2] != tuple(shape):
+        raise ValueError(f"{name}: path_m has {p.shape[0]} x {p.shape[1]} pixels, the camera {shape[0]} x {shape[1]} "
+                         "(rows x cols; camera.optical_area_m / camera.pixel_pitch_m)")
+    rows, cols = p.shape[:2]
+    ambient = arrays.get("ambient_reflectivity", np.zeros((rows, cols))).astype(float)
+    radial = arrays.get("radial_m", 0.5 * p[..., 0]).astype(float)
+    for key, value, allow_inf in (("path_m", p, False), ("radiance_per_w", rad, False),
+                                  ("ambient_reflectivity", ambient, False), ("radial_m", radial, True)):
+        if value.shape[:2] != (rows, cols):
+            raise ValueError(f"{name}: {key} has shape {value.shape}: allowed ({rows}, {cols}{', ...' if value.ndim > 2 else ''})")
+        bad = ~(np.isfinite(value) | (allow_inf & np.isposinf(value))) | (value < 0)
+        if np.any(bad):
+            i = tuple(int(x) for x in np.argwhere(bad)[0])
+            raise ValueError(f"{name}: {key}{list(i)} = {float(value[i])!r} is out of range: allowed finite values >= 0")
+    return Returns(jnp.asarray(p), jnp.asarray(rad), jnp.asarray(ambient), jnp.asarray(radial))

@@ -1,0 +1,344 @@
+"""Scenes for full frames: the camera's rays, geometry they hit, and the returns each pixel sees
+(thesis §6.1.1 and §6.1.3, future work; docs/model.md, "Full frames").
+
+Coordinates are the camera's: the lens centre at the origin, +z along the optical axis, +x right and
++y up in the scene. A pixel's ray runs from the lens centre through the pixel centre of a pinhole
+camera whose focal length is the lens' (:func:`tofjax.lens`); the principal point is the centre of
+the array, so the pixel on the optical axis exists when both pixel counts are odd. Each pixel is
+sampled by s x s rays (``frame.subpixel_samples``) at the centres of an s x s grid inside it.
+
+A scene is a tuple of primitives (:class:`Plane`, :class:`Sphere`, :class:`Box`), each with its own
+Lambertian reflectivity; a ray takes the nearest hit. Built-in scenes: :func:`wall`,
+:func:`tilted_plane`, :func:`step_edge`, :func:`box_on_floor`, :func:`sphere`, :func:`corner`
+(with patches for its two-bounce light). Any depth map becomes a :class:`Surface` with
+:func:`surface_from_depth`.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Bool, Float
+
+from ._optics import lens
+from ._params import Camera
+
+_INF = jnp.inf
+
+
+def _f64(x):
+    return jnp.asarray(x, dtype=float)
+
+
+def resolution(camera: Camera) -> tuple[int, int]:
+    """(rows, columns) of the pixel array: ``optical_area_m / pixel_pitch_m``, which must be whole
+    numbers of pixels (within 1e-6 of one; ``ValueError`` naming both keys otherwise)."""
+    import numpy as np
+
+    area, pitch = np.asarray(camera.optical_area_m, dtype=float), np.asarray(camera.pixel_pitch_m, dtype=float)
+    counts = area / pitch
+    rounded = np.rint(counts)
+    if np.any(np.abs(counts - rounded) > 1e-6 * np.maximum(rounded, 1.0)) or np.any(rounded < 1):
+        raise ValueError(f"camera.optical_area_m = {area.tolist()!r} is not a whole number of pixels of "
+                         f"camera.pixel_pitch_m = {pitch.tolist()!r} ({counts[0]:.4g} x {counts[1]:.4g}): allowed "
+                         "optical_area_m = [columns x pitch_x, rows x pitch_y]")
+    return int(rounded[1]), int(rounded[0])
+
+
+class Rays(eqx.Module):
+    """Unit ray directions of every pixel.
+
+    **Fields:** ``centre`` ``(rows, cols, 3)``: through each pixel centre; ``samples``
+    ``(rows, cols, s*s, 3)``: the sub-pixel rays; ``image_height`` ``(rows, cols)``: the pixel
+    centre's distance from the principal point over the half diagonal of the array (1 at a corner).
+    """
+
+    centre: Float[Array, "rows cols 3"]
+    samples: Float[Array, "rows cols sub 3"]
+    image_height: Float[Array, "rows cols"]
+
+    @property
+    def cos_field_angle(self) -> Float[Array, "rows cols"]:
+        """cos of the angle between each pixel's centre ray and the optical axis."""
+        return self.centre[..., 2]
+
+
+def pixel_rays(camera: Camera, shape: tuple[int, int], subpixel_samples: int = 1) -> Rays:
+    """The rays of a ``shape = (rows, cols)`` array with ``subpixel_samples`` rays per pixel and axis."""
+    rows, cols = shape
+    f = lens(camera).focal_length_m
+    px, py = camera.pixel_pitch_m[0], camera.pixel_pitch_m[1]
+    s = subpixel_samples
+    sub = (jnp.arange(s, dtype=float) + 0.5) / s - 0.5  # offsets inside a pixel, in pitches
+    col = jnp.arange(cols, dtype=float) - 0.5 * (cols - 1)
+    row = 0.5 * (rows - 1) - jnp.arange(rows, dtype=float)  # row 0 at the top: +y
+
+    def directions(x, y):
+        v = jnp.stack(jnp.broadcast_arrays(x / f, y / f, jnp.ones_like(x / f)), axis=-1)
+        return v / jnp.linalg.norm(v, axis=-1, keepdims=True)
+
+    centre = directions(col[None, :] * px, row[:, None] * py)
+    xs = (col[None, :, None, None] + sub[None, None, None, :]) * px  # (1, cols, 1, s)
+    ys = (row[:, None, None, None] - sub[None, None, :, None]) * py  # (rows, 1, s, 1)
+    samples = directions(xs, ys).reshape(rows, cols, s * s, 3)
+    half_diag = 0.5 * jnp.hypot(cols * px, rows * py)
+    height = jnp.hypot(col[None, :] * px, row[:, None] * py) / half_diag
+    return Rays(centre, samples, height)
+
+
+class Hit(eqx.Module):
+    """Where rays from the lens centre meet a surface: ``t`` the distance along the unit ray (inf: no
+    hit), the unit ``normal`` facing the ray, and the ``reflectivity`` there."""
+
+    t: Float[Array, "*r"]
+    normal: Float[Array, "*r 3"]
+    reflectivity: Float[Array, "*r"]
+
+
+def _facing(normal, d):
+    """Flip normals to face the incoming ray (a surface is seen from the side the ray comes from)."""
+    sign = jnp.where(jnp.sum(normal * d, axis=-1, keepdims=True) > 0.0, -1.0, 1.0)
+    return normal * sign
+
+
+def _inside(p, lo, hi):
+    return jnp.all((p >= jnp.broadcast_to(lo, p.shape)) & (p <= jnp.broadcast_to(hi, p.shape)), axis=-1)
+
+
+class Plane(eqx.Module):
+    """The plane through ``point`` with ``normal``, clipped to the box ``[lo, hi]`` (per axis; inf =
+    unbounded)."""
+
+    point: Float[Array, "3"] = eqx.field(converter=_f64)
+    normal: Float[Array, "3"] = eqx.field(converter=_f64)
+    reflectivity: Float[Array, ""] = eqx.field(converter=_f64)
+    lo: Float[Array, "3"] = eqx.field(converter=_f64, default=(-_INF, -_INF, -_INF))
+    hi: Float[Array, "3"] = eqx.field(converter=_f64, default=(_INF, _INF, _INF))
+
+    def intersect(self, d: Float[Array, "*r 3"]) -> Hit:
+        n = self.normal / jnp.linalg.norm(self.normal)
+        denom = d @ n
+        ok_denom = jnp.abs(denom) > 1e-12
+        t = jnp.sum(self.point * n) / jnp.where(ok_denom, denom, 1.0)
+        p = t[..., None] * d
+        ok = ok_denom & (t > 0.0) & _inside(p, self.lo, self.hi)
+        normal = _facing(jnp.broadcast_to(n, d.shape), d)
+        return Hit(jnp.where(ok, t, _INF), normal, jnp.broadcast_to(self.reflectivity, t.shape))
+
+
+class Sphere(eqx.Module):
+    """A sphere of ``radius`` around ``centre``."""
+
+    centre: Float[Array, "3"] = eqx.field(converter=_f64)
+    radius: Float[Array, ""] = eqx.field(converter=_f64)
+    reflectivity: Float[Array, ""] = eqx.field(converter=_f64)
+
+    def intersect(self, d: Float[Array, "*r 3"]) -> Hit:
+        b = d @ self.centre
+        disc = b * b - (jnp.sum(self.centre**2) - self.radius**2)
+        root = jnp.sqrt(jnp.maximum(disc, 0.0))
+        t0, t1 = b - root, b + root
+        t = jnp.where(t0 > 0.0, t0, t1)
+        ok = (disc > 0.0) & (t > 0.0)
+        t = jnp.where(ok, t, _INF)
+        p = jnp.where(ok, t, 1.0)[..., None] * d
+        normal = _facing((p - jnp.broadcast_to(self.centre, p.shape)) / self.radius, d)
+        return Hit(t, normal, jnp.broadcast_to(self.reflectivity, t.shape))
+
+
+class Box(eqx.Module):
+    """An axis-aligned box ``[lo, hi]`` (slab method; the face the ray enters by)."""
+
+    lo: Float[Array, "3"] = eqx.field(converter=_f64)
+    hi: Float[Array, "3"] = eqx.field(converter=_f64)
+    reflectivity: Float[Array, ""] = eqx.field(converter=_f64)
+
+    def intersect(self, d: Float[Array, "*r 3"]) -> Hit:
+        safe = jnp.where(jnp.abs(d) > 1e-15, d, 1e-15)
+        t_lo, t_hi = jnp.broadcast_to(self.lo, d.shape) / safe, jnp.broadcast_to(self.hi, d.shape) / safe
+        near, far = jnp.minimum(t_lo, t_hi), jnp.maximum(t_lo, t_hi)
+        t_in, t_out = jnp.max(near, axis=-1), jnp.min(far, axis=-1)
+        ok = (t_in <= t_out) & (t_in > 0.0)
+        axis = jnp.argmax(near, axis=-1)
+        normal = _facing(jax.nn.one_hot(axis, 3, dtype=float), d)
+        return Hit(jnp.where(ok, t_in, _INF), normal, jnp.broadcast_to(self.reflectivity, t_in.shape))
+
+
+class Patches(eqx.Module):
+    """Small flat patches of the scene's surfaces that relight each other (two-bounce light):
+    centres, unit normals (facing the camera's side), areas and reflectivities, ``(patches, ...)``."""
+
+    centre: Float[Array, "m 3"]
+    normal: Float[Array, "m 3"]
+    area_m2: Float[Array, " m"]
+    reflectivity: Float[Array, " m"]
+
+
+class SceneGeometry(eqx.Module):
+    """A scene: ``primitives`` (the nearest hit counts), an optional ``patches`` set for two-bounce
+    light (:func:`corner`), and its ``name``."""
+
+    primitives: tuple
+    patches: Patches | None = None
+    name: str = eqx.field(static=True, default="scene")
+
+    def cast(self, d: Float[Array, "*r 3"]) -> Hit:
+        """The nearest hit of every ray ``d`` (unit directions from the lens centre)."""
+        hits = [p.intersect(d) for p in self.primitives]
+        t = jnp.stack([h.t for h in hits])
+        best = jnp.argmin(t, axis=0)
+        pick = lambda x: jnp.take_along_axis(x, best[None], axis=0)[0]  # noqa: E731
+        normal = jnp.take_along_axis(jnp.stack([h.normal for h in hits]), best[None, ..., None], axis=0)[0]
+        return Hit(pick(t), normal, pick(jnp.stack([h.reflectivity for h in hits])))
+
+
+class Surface(eqx.Module):
+    """What every sub-pixel ray of a frame sees: hit distance ``t_m`` (inf: nothing), the surface
+    normal, reflectivity and the ambient factor (the background illuminance on that surface over the
+    configured one), ``(rows, cols, sub)``; and what each pixel's centre ray sees, ``centre_*``
+    ``(rows, cols[, 3])``."""
+
+    t_m: Float[Array, "rows cols sub"]
+    normal: Float[Array, "rows cols sub 3"]
+    reflectivity: Float[Array, "rows cols sub"]
+    ambient: Float[Array, "rows cols sub"]
+    centre_t_m: Float[Array, "rows cols"]
+    centre_normal: Float[Array, "rows cols 3"]
+    centre_reflectivity: Float[Array, "rows cols"]
+
+    @property
+    def hit(self) -> Bool[Array, "rows cols sub"]:
+        return jnp.isfinite(self.t_m)
+
+    @property
+    def radial_m(self) -> Float[Array, "rows cols"]:
+        """The true distance along each pixel's centre ray (inf: nothing)."""
+        return self.centre_t_m
+
+
+def surface(geometry: SceneGeometry, rays: Rays, sun_direction=None) -> Surface:
+    """Cast every ray of ``rays`` into ``geometry``. ``sun_direction``: a direction the background
+    light travels along (e.g. ``(0, -1, 1)``: from above and behind the camera); each surface then
+    gets the configured illuminance times the cosine of its incidence (0 in its own shade, no
+    occlusion), else (``None``) the configured illuminance everywhere, as the thesis' single pixel."""
+    hit = geometry.cast(rays.samples)
+    centre = geometry.cast(rays.centre)
+    if sun_direction is None:
+        ambient = jnp.ones_like(hit.t)
+    else:
+        s = _f64(sun_direction) / jnp.linalg.norm(_f64(sun_direction))
+        ambient = jnp.maximum(-(hit.normal @ s), 0.0)
+    return Surface(hit.t, hit.normal, hit.reflectivity, ambient, centre.t, centre.normal, centre.reflectivity)
+
+
+def surface_from_depth(depth_m, reflectivity, rays: Rays, radial: bool = False) -> Surface:
+    """A surface from a depth map ``(rows, cols)``: Z depth (``radial=False``) or radial distance
+    along each pixel's ray, and a reflectivity map (or a number). One ray per pixel; normals from
+    the map's finite differences (central inside, one-sided at the border), facing the camera;
+    non-finite or non-positive depths are misses."""
+    depth = _f64(depth_m)
+    d = rays.centre
+    t = depth if radial else depth / d[..., 2]
+    ok = jnp.isfinite(t) & (t > 0.0)
+    t = jnp.where(ok, t, _INF)
+    p = jnp.where(ok, t, 0.0)[..., None] * d
+    du = jnp.gradient(p, axis=1)
+    dv = jnp.gradient(p, axis=0)
+    n = jnp.cross(du, dv)
+    n = n / jnp.maximum(jnp.linalg.norm(n, axis=-1, keepdims=True), 1e-300)
+    n = _facing(n, d)
+    rho = jnp.broadcast_to(_f64(reflectivity), t.shape)
+    return Surface(t[..., None], n[..., None, :], rho[..., None], jnp.ones_like(t)[..., None], t, n, rho)
+
+
+# --- built-in scenes (distances in m, angles in degrees) ---------------------------------------------
+
+
+def wall(distance_m=1.0, reflectivity=0.9) -> SceneGeometry:
+    """A flat wall perpendicular to the optical axis at ``distance_m``."""
+    return SceneGeometry((Plane((0.0, 0.0, distance_m), (0.0, 0.0, 1.0), reflectivity),), name="wall")
+
+
+def tilted_plane(distance_m=1.0, angle_deg=30.0, reflectivity=0.9) -> SceneGeometry:
+    """A wall through (0, 0, ``distance_m``) turned by ``angle_deg`` about the vertical axis (its
+    right side farther away for a positive angle)."""
+    a = jnp.deg2rad(_f64(angle_deg))
+    normal = jnp.stack([-jnp.sin(a), jnp.zeros_like(a), jnp.cos(a)])
+    return SceneGeometry((Plane(jnp.stack([0.0 * a, 0.0 * a, _f64(distance_m)]), normal, reflectivity),),
+                         name="tilted_plane")
+
+
+def step_edge(near_m=1.0, far_m=2.0, edge_x_m=0.0, reflectivity=0.9) -> SceneGeometry:
+    """A board at ``near_m`` covering everything left of x = ``edge_x_m`` in front of a wall at
+    ``far_m``: a vertical depth edge (flying pixels along it)."""
+    board = Plane((0.0, 0.0, near_m), (0.0, 0.0, 1.0), reflectivity, lo=(-_INF, -_INF, -_INF),
+                  hi=(edge_x_m, _INF, _INF))
+    back = Plane((0.0, 0.0, far_m), (0.0, 0.0, 1.0), reflectivity)
+    return SceneGeometry((board, back), name="step_edge")
+
+
+def box_on_floor(camera_height_m=1.0, wall_m=3.0, box_m=1.8, box_size_m=0.5, reflectivity=0.9,
+                 floor_reflectivity=0.3) -> SceneGeometry:
+    """A cube of ``box_size_m`` on the floor ``camera_height_m`` below the camera, its front face at
+    ``box_m``, in front of a wall at ``wall_m``."""
+    h, s = _f64(camera_height_m), _f64(box_size_m)
+    floor = Plane(jnp.stack([0.0 * h, -h, 0.0 * h]), (0.0, 1.0, 0.0), floor_reflectivity)
+    back = Plane((0.0, 0.0, wall_m), (0.0, 0.0, 1.0), reflectivity)
+    cube = Box(jnp.stack([-0.5 * s, -h, _f64(box_m)]), jnp.stack([0.5 * s, -h + s, _f64(box_m) + s]), reflectivity)
+    return SceneGeometry((floor, back, cube), name="box_on_floor")
+
+
+def sphere(distance_m=1.5, radius_m=0.3, wall_m=2.5, reflectivity=0.9) -> SceneGeometry:
+    """A sphere whose nearest point is at ``distance_m`` on the axis, in front of a wall at ``wall_m``."""
+    r = _f64(radius_m)
+    ball = Sphere(jnp.stack([0.0 * r, 0.0 * r, _f64(distance_m) + r]), r, reflectivity)
+    back = Plane((0.0, 0.0, wall_m), (0.0, 0.0, 1.0), reflectivity)
+    return SceneGeometry((ball, back), name="sphere")
+
+
+def corner(distance_m=2.0, half_angle_deg=45.0, height_m=3.0, reflectivity=0.9, patches_per_side=24,
+           depth_m=None) -> SceneGeometry:
+    """Two walls meeting in a vertical concave corner on the optical axis at ``distance_m``, each
+    at ``half_angle_deg`` to the axis (45: a right-angle corner), ``height_m`` tall, each wall
+    ``depth_m`` deep along its own surface (default: reaching the camera plane), with
+    ``patches_per_side`` x ``patches_per_side`` patches per wall for their two-bounce light."""
+    a = jnp.deg2rad(_f64(half_angle_deg))
+    d = _f64(distance_m)
+    apex = jnp.stack([0.0 * d, 0.0 * d, d])
+    length = d / jnp.cos(a) if depth_m is None else _f64(depth_m)  # along the wall from the corner
+    prims, cs, ns, areas = [], [], [], []
+    k = patches_per_side
+    u = (jnp.arange(k, dtype=float) + 0.5) / k
+    for side in (-1.0, 1.0):
+        along = jnp.stack([side * jnp.sin(a), 0.0 * a, -jnp.cos(a)])  # from the apex towards the camera
+        normal = jnp.stack([-side * jnp.cos(a), 0.0 * a, -jnp.sin(a)])  # facing the camera's side
+        end = apex + length * along
+        lo = jnp.minimum(apex, end) - jnp.stack([0.0, 0.5 * height_m, 0.0])
+        hi = jnp.maximum(apex, end) + jnp.stack([0.0, 0.5 * height_m, 0.0])
+        prims.append(Plane(apex, normal, reflectivity, lo=lo - 1e-9, hi=hi + 1e-9))
+        centres = (apex[None, None] + (u[:, None, None] * length) * along[None, None]
+                   + ((u[None, :, None] - 0.5) * height_m) * jnp.array([0.0, 1.0, 0.0])[None, None])
+        cs.append(centres.reshape(-1, 3))
+        ns.append(jnp.broadcast_to(normal, (k * k, 3)))
+        areas.append(jnp.full((k * k,), 1.0) * length * height_m / k**2)
+    patches = Patches(jnp.concatenate(cs), jnp.concatenate(ns), jnp.concatenate(areas),
+                      jnp.full((2 * k * k,), 1.0) * _f64(reflectivity))
+    return SceneGeometry(tuple(prims), patches, name="corner")
+
+
+#: Built-in scenes by name: the function and its parameters' allowed ranges (for the command line).
+BUILTIN_SCENES = {
+    "wall": (wall, {"distance_m": (0.01, 1e3), "reflectivity": (0.0, 1.0)}),
+    "tilted_plane": (tilted_plane, {"distance_m": (0.01, 1e3), "angle_deg": (-80.0, 80.0),
+                                    "reflectivity": (0.0, 1.0)}),
+    "step_edge": (step_edge, {"near_m": (0.01, 1e3), "far_m": (0.01, 1e3), "edge_x_m": (-1e3, 1e3),
+                              "reflectivity": (0.0, 1.0)}),
+    "box_on_floor": (box_on_floor, {"camera_height_m": (0.01, 100.0), "wall_m": (0.01, 1e3),
+                                    "box_m": (0.01, 1e3), "box_size_m": (0.001, 100.0),
+                                    "reflectivity": (0.0, 1.0), "floor_reflectivity": (0.0, 1.0)}),
+    "sphere": (sphere, {"distance_m": (0.01, 1e3), "radius_m": (0.001, 100.0), "wall_m": (0.01, 1e3),
+                        "reflectivity": (0.0, 1.0)}),
+    "corner": (corner, {"distance_m": (0.01, 1e3), "half_angle_deg": (10.0, 80.0), "height_m": (0.01, 100.0),
+                        "reflectivity": (0.0, 1.0)}),
+}

@@ -1,0 +1,173 @@
+"""Writing full frames (:func:`tofjax.render_frame`, :func:`tofjax.predict_frame`): NPZ arrays, PNG
+colour maps with colour bars, a PLY point cloud and a self-contained HTML report (``tofjax render``).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+from pathlib import Path
+
+import numpy as np
+
+#: Map name -> (title, unit, colour map) of the PNGs.
+MAPS = {
+    "radial_m": ("Measured radial distance", "m", "viridis"),
+    "z_m": ("Measured Z depth", "m", "viridis"),
+    "error_mm": ("Distance error (measured - true, modulo the unambiguity range)", "mm", "coolwarm"),
+    "depth_std_mm": ("Depth noise (Monte Carlo std over frames)", "mm", "magma"),
+    "predicted_std_mm": ("Predicted depth noise (analytic)", "mm", "magma"),
+    "amplitude_lsb": ("Amplitude", "LSB", "gray"),
+    "intensity_e": ("Intensity (mean electrons per tap)", "e-", "gray"),
+    "frame_radial_m": ("One noisy frame: radial distance", "m", "viridis"),
+    "flags": ("Flags (1 saturated, 2 low signal, 4 no return)", "-", "tab10"),
+}
+
+
+def frame_arrays(frame, predicted=None) -> dict[str, np.ndarray]:
+    """The frame's images as NumPy arrays (``(rows, cols)``; ``frames_radial_m`` ``(frames, rows,
+    cols)`` when frames were kept), with the analytic ``predicted`` frame's noise image if given."""
+    r = frame.result
+    out = {
+        "radial_m": np.asarray(frame.radial_m), "z_m": np.asarray(frame.z_m),
+        "radial_true_m": np.asarray(frame.radial_true_m), "z_true_m": np.asarray(frame.z_true_m),
+        "depth_std_m": np.asarray(frame.depth_std_m), "amplitude_lsb": np.asarray(frame.amplitude_lsb),
+        "amplitude_std_lsb": np.asarray(r.amplitude_std_lsb), "intensity_e": np.asarray(frame.intensity_e),
+        "signal_e": np.asarray(r.noise.signal_e), "background_e": np.asarray(r.noise.background_e),
+        "valid_fraction": np.asarray(r.valid_fraction), "flags": np.asarray(frame.flags),
+        "direction": np.asarray(frame.direction), "unambiguity_range_m": np.asarray(r.unambiguity_range_m),
+        "prnu_gain": np.asarray(frame.pattern.gain), "phase_offset_rad": np.asarray(frame.pattern.phase_offset_rad),
+    }
+    if frame.frames_radial_m is not None:
+        out["frames_radial_m"] = np.asarray(frame.frames_radial_m)
+    if predicted is not None:
+        out["predicted_std_m"] = np.asarray(predicted.depth_std_m)
+    return out
+
+
+def write_npz(path, arrays: dict[str, np.ndarray]) -> Path:
+    """All arrays in one compressed NPZ (``format = "tofjax-frame/1"``)."""
+    path = Path(path)
+    np.savez_compressed(path, format=np.array("tofjax-frame/1"), **arrays)
+    return path
+
+
+def write_ply(path, points_m: np.ndarray, values: np.ndarray | None = None) -> Path:
+    """A binary little-endian PLY point cloud: float32 x, y, z (m) and, if given, a float32
+    ``intensity`` per point."""
+    path = Path(path)
+    pts = np.asarray(points_m, dtype="<f4").reshape(-1, 3)
+    fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")] + ([("intensity", "<f4")] if values is not None else [])
+    data = np.empty(len(pts), dtype=fields)
+    data["x"], data["y"], data["z"] = pts[:, 0], pts[:, 1], pts[:, 2]
+    if values is not None:
+        data["intensity"] = np.asarray(values, dtype="<f4").reshape(-1)
+    header = ["ply", "format binary_little_endian 1.0", "comment tofjax frame: x right, y up, z along the optical "
+              "axis, metres", f"element vertex {len(pts)}"]
+    header += [f"property float {name}" for name, _ in fields] + ["end_header"]
+    with open(path, "wb") as fh:
+        fh.write(("\n".join(header) + "\n").encode("ascii"))
+        fh.write(data.tobytes())
+    return path
+
+
+def read_ply(path) -> np.ndarray:
+    """The vertices of a PLY written by :func:`write_ply`, as a structured array."""
+    raw = Path(path).read_bytes()
+    end = raw.index(b"end_header\n") + len(b"end_header\n")
+    names = [line.split()[-1] for line in raw[:end].decode("ascii").splitlines() if line.startswith("property")]
+    return np.frombuffer(raw[end:], dtype=[(n, "<f4") for n in names])
+
+
+def write_png(path, image: np.ndarray, title: str, unit: str, cmap: str = "viridis", vmin=None, vmax=None) -> Path:
+    """One image as a PNG colour map with a colour bar and title (pixel (0, 0) at the top left)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    image = np.asarray(image, dtype=float)
+    rows, cols = image.shape
+    fig, ax = plt.subplots(figsize=(6.4, 6.4 * rows / cols + 0.6), dpi=110, layout="constrained")
+    finite = image[np.isfinite(image)]
+    if finite.size and vmin is None:
+        vmin, vmax = np.percentile(finite, [1, 99]) if finite.size > 100 else (finite.min(), finite.max())
+        if vmin == vmax:
+            vmin, vmax = vmin - 0.5, vmax + 0.5
+    shown = ax.imshow(np.ma.masked_invalid(image), cmap=cmap, vmin=vmin, vmax=vmax, interpolation="nearest")
+    ax.set_title(title)
+    ax.set_xlabel("column")
+    ax.set_ylabel("row")
+    fig.colorbar(shown, ax=ax, label=unit, shrink=0.85)
+    fig.savefig(path)
+    plt.close(fig)
+    return Path(path)
+
+
+def write_maps(directory, arrays: dict[str, np.ndarray]) -> list[Path]:
+    """The PNG colour maps of :data:`MAPS` that the arrays allow."""
+    directory = Path(directory)
+    images = {
+        "radial_m": arrays["radial_m"], "z_m": arrays["z_m"],
+        "error_mm": 1e3 * distance_error_m(arrays),
+        "depth_std_mm": 1e3 * arrays["depth_std_m"], "amplitude_lsb": arrays["amplitude_lsb"],
+        "intensity_e": arrays["intensity_e"], "flags": arrays["flags"].astype(float),
+    }
+    if "predicted_std_m" in arrays:
+        images["predicted_std_mm"] = 1e3 * arrays["predicted_std_m"]
+    if "frames_radial_m" in arrays:
+        images["frame_radial_m"] = arrays["frames_radial_m"][0]
+    written = []
+    for name, image in images.items():
+        title, unit, cmap = MAPS[name]
+        limits = (0, 7) if name == "flags" else (None, None)
+        if name == "error_mm":
+            finite = np.abs(image[np.isfinite(image)])
+            span = float(np.percentile(finite, 99)) if finite.size else 1.0
+            limits = (-span, span) if span > 0 else (-1, 1)
+        written.append(write_png(directory / f"{name}.png", image, title, unit, cmap, *limits))
+    return written
+
+
+def distance_error_m(arrays: dict[str, np.ndarray]) -> np.ndarray:
+    """Measured minus true radial distance, wrapped to [-d_u/2, d_u/2) (a distance beyond the
+    unambiguity range d_u reads d_u short: aliasing, not error)."""
+    du = float(arrays["unambiguity_range_m"])
+    diff = arrays["radial_m"] - arrays["radial_true_m"]
+    return diff - du * np.floor(diff / du + 0.5)
+
+
+def headlines(arrays: dict[str, np.ndarray]) -> dict[str, float]:
+    """Frame-level numbers: pixels, flagged fractions, median noise, median error (good pixels)."""
+    flags = arrays["flags"]
+    good = flags == 0
+    err = distance_error_m(arrays)[good]
+    out = {
+        "pixels": float(flags.size), "good_fraction": float(np.mean(good)),
+        "saturated_fraction": float(np.mean((flags & 1) != 0)), "low_signal_fraction": float(np.mean((flags & 2) != 0)),
+        "no_return_fraction": float(np.mean((flags & 4) != 0)),
+        "median_depth_std_mm": float(1e3 * np.nanmedian(arrays["depth_std_m"][good])) if good.any() else float("nan"),
+        "median_abs_error_mm": float(1e3 * np.nanmedian(np.abs(err))) if err.size else float("nan"),
+    }
+    if "predicted_std_m" in arrays and good.any():
+        out["median_predicted_std_mm"] = float(1e3 * np.nanmedian(arrays["predicted_std_m"][good]))
+    return out
+
+
+def write_report(directory, arrays: dict[str, np.ndarray], pngs: list[Path], title: str, lines: list[str]) -> Path:
+    """``report.html``: the run's description ``lines``, the headline numbers and every PNG embedded."""
+    directory = Path(directory)
+    numbers = headlines(arrays)
+    rows = "".join(f"<tr><td>{html.escape(k)}</td><td>{v:.4g}</td></tr>" for k, v in numbers.items())
+    images = "".join(
+        f'<figure><img src="data:image/png;base64,{base64.b64encode(p.read_bytes()).decode()}" '
+        f'alt="{html.escape(p.stem)}"><figcaption>{html.escape(p.name)}</figcaption></figure>' for p in pngs)
+    body = "".join(f"<p>{html.escape(line)}</p>" for line in lines)
+    page = (f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title><style>"
+            "body{font-family:sans-serif;max-width:1400px;margin:auto}figure{display:inline-block;margin:6px}"
+            "img{width:440px}td{padding:2px 10px}</style></head><body>"
+            f"<h1>{html.escape(title)}</h1>{body}<h2>Headline numbers</h2><table>{rows}</table>"
+            f"<h2>Images</h2>{images}</body></html>")
+    path = directory / "report.html"
+    path.write_text(page, encoding="utf-8")
+    return path

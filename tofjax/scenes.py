@@ -1,0 +1,16 @@
+"""Scenes for full frames (:func:`tofjax.scene_returns`): built-in geometry and its primitives.
+
+Camera coordinates: the lens centre at the origin, +z along the optical axis, +x right, +y up.
+Built-in scenes (distances in m, angles in degrees): :func:`wall`, :func:`tilted_plane`,
+:func:`step_edge`, :func:`box_on_floor`, :func:`sphere`, :func:`corner` (with two-bounce light).
+Compose your own from :class:`Plane`, :class:`Sphere` and :class:`Box` in a :class:`SceneGeometry`;
+:data:`BUILTIN_SCENES` lists each built-in scene's parameters and their allowed ranges.
+"""
+
+from ._scene import (
+    BUILTIN_SCENES, Box, Patches, Plane, Rays, SceneGeometry, Sphere, Surface, box_on_floor, corner, pixel_rays,
+    resolution, sphere, step_edge, surface, surface_from_depth, tilted_plane, wall)
+
+__all__ = ["BUILTIN_SCENES", "Box", "Patches", "Plane", "Rays", "SceneGeometry", "Sphere", "Surface", "box_on_floor",
+           "corner", "pixel_rays", "resolution", "sphere", "step_edge", "surface", "surface_from_depth",
+           "tilted_plane", "wall"]
