@@ -41,7 +41,7 @@ from ._result import Result
 from ._returns import Returns, direct_returns, two_bounce_returns
 from ._scene import Rays, SceneGeometry, pixel_rays, resolution, surface, surface_from_depth
 from ._smooth import Smooth
-from ._sweep import Sweep, check_inputs
+from ._sweep import Sweep
 from ._waveforms import waveform_mean
 
 #: Bits of :attr:`FrameResult.flags`.
@@ -265,7 +265,8 @@ def _pattern(params: Params, shape, pattern: PixelPattern | None) -> PixelPatter
 
 
 def _check_frame(params, settings, returns):
-    check_inputs(params, Sweep("distance", [1.0]))
+    if not isinstance(params, Params):
+        raise TypeError(f"params must be a tofjax.Params, got {type(params).__name__}")
     if not isinstance(settings, FrameSettings):
         raise TypeError(f"settings must be a tofjax.FrameSettings, got {type(settings).__name__}")
     if not isinstance(returns, Returns):
