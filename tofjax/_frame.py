@@ -145,19 +145,21 @@ def pixel_etendue_m2_sr(params: Params, settings: FrameSettings, rays: Rays) -> 
     return jnp.pi * area * cam.k_lens * relative * vignette / (4.0 * cam.f_number**2)
 
 
-def frame_charges(chain: Chain, settings: FrameSettings, returns: Returns, pattern: PixelPattern) -> TapCharges:
+def frame_charges(chain: Chain, settings: FrameSettings, returns: Returns, pattern: PixelPattern,
+                  rays: Rays | None = None) -> TapCharges:
     """Expected tap electrons of every pixel at the scene's nominal illuminance and integration
-    time: ``(rows, cols, phases)`` (module docstring)."""
+    time: ``(rows, cols, phases)`` (module docstring); ``rays``: the pixels' centre rays, if made."""
     params = chain.params
     scene, ill, consts, pixel = params.scene, params.illumination, params.constants, params.pixel
     t = scene.integration_time_s
-    rays = frame_rays(params, settings, 1, returns.shape)
+    rays = frame_rays(params, settings, 1, returns.shape) if rays is None else rays
     per_radiance = pixel_etendue_m2_sr(params, settings, rays) * pattern.gain  # flux per radiance, m^2 sr
-    to_electrons = t / photon_energy_j(ill.wavelength_m, consts) * quantum_efficiency(pixel, ill.wavelength_m, consts)
+    qe = quantum_efficiency(pixel, ill.wavelength_m, consts)
     emitted = ill.peak_power_w * waveform_mean(params.illumination_waveform)
+    to_electrons = t / photon_energy_j(ill.wavelength_m, consts) * qe  # per joule
     per_return = emitted * returns.radiance_per_w * (per_radiance * to_electrons)[..., None]  # (rows, cols, k)
     background = scene_photon_irradiance(params, scene.illuminance_lx) * returns.ambient_reflectivity / jnp.pi \
-        * per_radiance * t * quantum_efficiency(pixel, ill.wavelength_m, consts)
+        * per_radiance * t * qe
     # Each return's delay f * path / c in periods (Eq 3.22), plus the pixel's phase offset.
     delay = params.illumination_waveform.modulation_frequency_hz * returns.path_m / consts.speed_of_light_m_per_s
     a = chain.correlation(delay + (pattern.phase_offset_rad / (2.0 * jnp.pi))[..., None])  # (rows, cols, k, phases)
@@ -276,19 +278,22 @@ def _check_frame(params, settings, returns):
                          f"{frame_shape(params)[0]} x {frame_shape(params)[1]} (rows x cols)")
 
 
-def _direction(params, settings, shape):
-    return frame_rays(params, settings, 1, shape).centre
+def _setup(params, settings, returns, pattern, smooth):
+    """What both paths need: the pattern, the frame's chain, one operating point per pixel, the
+    expected charges and the pixels' centre rays (computed once)."""
+    shape = returns.shape
+    pattern = _pattern(params, shape, pattern)
+    chain = _frame_chain(params, smooth, math.prod(shape) * returns.path_m.shape[-1], pattern)
+    rays = frame_rays(params, settings, 1, shape)
+    charges = frame_charges(chain, settings, returns, pattern, rays)
+    return pattern, chain, _sweep(params, returns), charges, rays.centre
 
 
 @eqx.filter_jit
 def _predict_frame(params, settings, returns, pattern, smooth):
-    shape = returns.shape
-    pattern = _pattern(params, shape, pattern)
-    chain = _frame_chain(params, smooth, math.prod(shape) * returns.path_m.shape[-1], pattern)
-    sweep = _sweep(params, returns)
-    charges = frame_charges(chain, settings, returns, pattern)
+    pattern, chain, sweep, charges, direction = _setup(params, settings, returns, pattern, smooth)
     result = analytic(chain, sweep, moments(chain, sweep, charges))
-    return FrameResult(result, returns.radial_m, _direction(params, settings, shape), pattern)
+    return FrameResult(result, returns.radial_m, direction, pattern)
 
 
 def predict_frame(params: Params, settings: FrameSettings, returns: Returns, pattern: PixelPattern | None = None, *,
@@ -307,19 +312,15 @@ def predict_frame(params: Params, settings: FrameSettings, returns: Returns, pat
 
 @eqx.filter_jit
 def _render_frame(params, settings, returns, key, frames, keep_frames, pattern, smooth, progress):
-    shape = returns.shape
-    n = math.prod(shape)
-    pattern = _pattern(params, shape, pattern)
-    chain = _frame_chain(params, smooth, n * returns.path_m.shape[-1], pattern)
-    sweep = _sweep(params, returns)
-    charges = frame_charges(chain, settings, returns, pattern)
+    n = math.prod(returns.shape)
+    pattern, chain, sweep, charges, direction = _setup(params, settings, returns, pattern, smooth)
     flat = jax.tree_util.tree_map(lambda x: x.reshape((n,) + x.shape[2:]), charges)
     consts = point_constants(chain, flat, jnp.arange(n, dtype=jnp.uint32),
                              chain.limit.full_well_e.reshape(n))
     sums, kept = run_blocks(frames_step(chain, key_words(key)), consts, n, frames, keep_frames, chain.n_phases,
                             progress=progress)
     result = assemble(chain, sweep, Prepared(charges, consts), sums, kept, frames)
-    return FrameResult(result, returns.radial_m, _direction(params, settings, shape), pattern)
+    return FrameResult(result, returns.radial_m, direction, pattern)
 
 
 def render_frame(params: Params, settings: FrameSettings, returns: Returns, key: PRNGKeyArray, frames: int = 1, *,

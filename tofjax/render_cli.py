@@ -13,6 +13,8 @@ from pathlib import Path
 
 
 def register(subparsers) -> None:
+    from .cli import positive_int  # loaded already: cli registers this command
+
     p = subparsers.add_parser(
         "render", help="render full frames of a scene: depth, noise image, amplitude, point cloud",
         description="Monte Carlo frames of every pixel of the camera looking at a scene, with the analytic "
@@ -25,7 +27,7 @@ def register(subparsers) -> None:
     p.add_argument("--scene", required=True, help="NAME[:key=value,...] or FILE.npz (default parameters: "
                                                   "tofjax.scenes)")
     p.add_argument("--config", type=Path, help="TOML configuration (default: built-in defaults)")
-    p.add_argument("--frames", type=_positive_int, default=100, help="Monte Carlo frames (default 100)")
+    p.add_argument("--frames", type=positive_int, default=100, help="Monte Carlo frames (default 100)")
     p.add_argument("--keep-frames", type=_non_negative_int, default=1,
                    help="frames to keep whole in frame.npz (default 1; at most --frames)")
     p.add_argument("--seed", type=_non_negative_int, default=0, help="random seed of the frames (default 0)")
@@ -39,12 +41,6 @@ def register(subparsers) -> None:
     p.add_argument("--check", action="store_true", help="validate everything, print the plan, render nothing")
     p.add_argument("--quiet", action="store_true", help="no progress report")
     p.set_defaults(run=run)
-
-
-def _positive_int(text: str) -> int:
-    from .cli import positive_int
-
-    return positive_int(text)
 
 
 def _non_negative_int(text: str) -> int:
