@@ -7,11 +7,15 @@ on both sides: the exposure of every pixel from its returns (etendue, the tabula
 each return, the phasor sum), then the noisy frames (noise, SBI, ADC, demodulation).
 
 - ``one``: one noisy frame per call (``render_frame(frames=1, keep_frames=1)``; NumPy: one frame);
+- ``prepared``: one noisy frame per call of a scene exposed once (``prepare_frame`` once, then
+  ``.sample(key, 1)``: the frame only; NumPy: the expected charges once, then one frame per call):
+  a live view or a stream of frames of a static scene;
 - ``batch``: 32 noisy frames per call, all kept (``render_frame(frames=32, keep_frames=32)``; NumPy:
   the exposure once and 32 frames in one vectorised draw);
 - ``floor``: only the normals each side draws for those 32 frames (tofjax: one Philox normal per
   phase image; NumPy: 4 PCG64 normals per phase image);
-- ``analytic``: the noise image (``predict_frame``), images per second.
+- ``analytic``: the noise image (``predict_frame``), images per second; ``analytic_prepared``: the
+  chain's share of it, after the exposure (``prepare_frame(...).predict()``).
 
 Targets (issue 13): 224 x 172 >= 100 frames/s and >= 2x NumPy; 640 x 480 >= 25 frames/s; the
 analytic noise image of 224 x 172 >= 1000 images/s.
@@ -83,8 +87,8 @@ class NumpyFrame:
         equal = (0.5 * (1.0 - b.contrast) * signal + 0.5 * self.ambient * self.background + self.dark)[:, None]
         return modulated + equal, b.contrast * signal[:, None] - modulated + equal
 
-    def frames(self, rng, n_frames: int):
-        n_a, n_b = self.expected()
+    def frames(self, rng, n_frames: int, expected=None):
+        n_a, n_b = self.expected() if expected is None else expected
         codes, valid = self.base._frames(rng, n_a, n_b, n_frames)
         phase, amp = self.base._demodulate(codes)
         depth = np.where(valid, np.mod(phase, 2 * np.pi) * (self.base.d_u / (2 * np.pi)), np.nan)
@@ -97,6 +101,7 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
     s = tj.FrameSettings()
     returns = ready(tj.scene_returns(p, s, scenes.tilted_plane(1.2, 30.0)))
     n_px = rows * cols
+    prepared = ready(tj.prepare_frame(p, s, returns))
     words = key_words(jax.random.key(5))
     floor_jax = jax.jit(lambda f0: jnp.sum(normals(words, f0 + jnp.arange(BATCH, dtype=jnp.uint32)[None, :],
                                                    jnp.arange(n_px, dtype=jnp.uint32)[:, None], 0, 4)))
@@ -105,22 +110,30 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
                                       .result.depth_m),
         "tofjax_batch": lambda i: ready(tj.render_frame(p, s, returns, jax.random.key(i + 3), BATCH,
                                                         keep_frames=BATCH).result.depth_m),
+        "tofjax_prepared": lambda i: ready(prepared.sample(jax.random.key(i + 3), 1).radial_m),
         "tofjax_analytic": lambda i: ready(tj.predict_frame(p, s, returns).depth_std_m),
+        "tofjax_analytic_prepared": lambda i: ready(prepared.predict().depth_std_m),
         "floor_tofjax_normals": lambda i: ready(floor_jax(jnp.uint32(BATCH * (i + 2)))),
     }
     if with_numpy:
         npf = NumpyFrame(p, s, returns)
         rng = np.random.default_rng(2)
         cases["numpy_one"] = lambda i: npf.frames(rng, 1)
+        expected = npf.expected()
+        cases["numpy_prepared"] = lambda i: npf.frames(rng, 1, expected)
         cases["numpy_batch"] = lambda i: npf.frames(rng, BATCH)
         cases["floor_numpy_normals"] = lambda i: rng.standard_normal((4, n_px, BATCH, 4))
     t = interleaved(cases, repeats)
-    out = {"seconds": t, "frames_per_s": {"tofjax_one": 1 / t["tofjax_one"], "tofjax_batch": BATCH / t["tofjax_batch"]},
+    out = {"seconds": t, "frames_per_s": {"tofjax_one": 1 / t["tofjax_one"], "tofjax_prepared": 1 / t["tofjax_prepared"],
+                                          "tofjax_batch": BATCH / t["tofjax_batch"]},
            "analytic_images_per_s": 1 / t["tofjax_analytic"],
+           "analytic_prepared_images_per_s": 1 / t["tofjax_analytic_prepared"],
            "ratios": {"tofjax_batch/floor_tofjax_normals": t["tofjax_batch"] / t["floor_tofjax_normals"]}}
     if with_numpy:
-        out["frames_per_s"].update(numpy_one=1 / t["numpy_one"], numpy_batch=BATCH / t["numpy_batch"])
+        out["frames_per_s"].update(numpy_one=1 / t["numpy_one"], numpy_prepared=1 / t["numpy_prepared"],
+                                   numpy_batch=BATCH / t["numpy_batch"])
         out["ratios"].update({"numpy_one/tofjax_one": t["numpy_one"] / t["tofjax_one"],
+                              "numpy_prepared/tofjax_prepared": t["numpy_prepared"] / t["tofjax_prepared"],
                               "numpy_batch/tofjax_batch": t["numpy_batch"] / t["tofjax_batch"],
                               "numpy_batch/floor_numpy_normals": t["numpy_batch"] / t["floor_numpy_normals"]})
         mc = tj.render_frame(p, s, returns, jax.random.key(0), BATCH, keep_frames=BATCH)
@@ -131,20 +144,22 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
 
 
 def table(r: dict) -> str:
-    lines = [f"{'case':<34}{'tofjax':>16}{'NumPy':>14}{'ratio':>10}  target"]
+    lines = [f"{'case':<42}{'tofjax':>16}{'NumPy':>14}{'ratio':>10}  target"]
     for name, target in (("frame_224x172", (">= 100 fps, >= 2x", ">= 1000/s")), ("frame_640x480", (">= 25 fps", ""))):
         if name not in r:
             continue
         c, size = r[name], name[6:]
         fps = c["frames_per_s"]
-        for kind in ("one", "batch"):
+        labels = {"one": "1 per call", "prepared": "1 per call, prepared", "batch": f"{BATCH} per call"}
+        for kind in ("one", "prepared", "batch"):
             ratio = c["ratios"].get(f"numpy_{kind}/tofjax_{kind}")
-            lines.append(f"{size + ' noisy frames, ' + (str(BATCH) + ' per call' if kind == 'batch' else '1 per call'):<34}"
+            lines.append(f"{size + ' noisy frames, ' + labels[kind]:<42}"
                          f"{fps[f'tofjax_{kind}']:>12.0f} fps{fps.get(f'numpy_{kind}', float('nan')):>10.0f} fps"
                          f"{(f'{ratio:.1f}x' if ratio else '-'):>10}  {target[0]}")
-        lines.append(f"{size + ' analytic noise image':<34}{c['analytic_images_per_s']:>9.0f} images/s{'':>14}{'':>10}  "
+        lines.append(f"{size + ' analytic noise image':<42}{c['analytic_images_per_s']:>9.0f} images/s{'':>14}{'':>10}  "
                      f"{target[1]}")
-        lines.append(f"{size + ' batch / its normals (floor)':<34}{c['ratios']['tofjax_batch/floor_tofjax_normals']:>15.1f}x"
+        lines.append(f"{size + ' analytic, exposure prepared':<42}{c['analytic_prepared_images_per_s']:>9.0f} images/s")
+        lines.append(f"{size + ' batch / its normals (floor)':<42}{c['ratios']['tofjax_batch/floor_tofjax_normals']:>15.1f}x"
                      + (f"{c['ratios']['numpy_batch/floor_numpy_normals']:>13.1f}x" if 'numpy_batch/floor_numpy_normals'
                         in c['ratios'] else ""))
     return "\n".join(lines)

@@ -21,7 +21,7 @@ from tofjax.sweepfile import utc_now
 
 from ._compare import FileComparison, compare_measurements, write_comparison
 from ._data import OBSERVABLES, SweepRows, load_rows, read_measurement
-from ._least_squares import LeastSquaresResult, fit_least_squares
+from ._least_squares import ConvergenceError, LeastSquaresResult, fit_least_squares
 from ._parameters import CalibrationInputError, make_parameters
 from ._problem import Problem, batched_curves, build_problem, hard_observables
 
@@ -53,6 +53,20 @@ class Calibration:
     @property
     def estimates(self) -> dict[str, float]:
         return dict(zip(self.least_squares.names, map(float, self.least_squares.estimate), strict=True))
+
+    def with_posterior(self, *, walkers: int = 32, steps: int = 2000, seed: int = 0, backend=None,
+                       resume: bool = False, progress: bool = False) -> Calibration:
+        """This calibration with its posterior sampled from the least-squares solution, without
+        fitting again (:func:`fitting.sample_posterior`; arguments as :func:`calibrate`'s).
+        ``calibrate(..., mcmc=True)`` is ``calibrate(...).with_posterior(...)``."""
+        if not self.least_squares.converged:
+            raise ConvergenceError("the least squares did not converge: no posterior to sample from its solution "
+                                   f"({self.least_squares.solver_message})")
+        from ._posterior import sample_posterior
+
+        post = sample_posterior(self.problem, self.least_squares, walkers=walkers, steps=steps, seed=seed,
+                                backend_path=backend, resume=resume, progress=progress)
+        return dataclasses.replace(self, posterior=post)
 
     def calibrated_config(self) -> tj.Config:
         """The input configuration with the least-squares estimates."""
@@ -162,13 +176,11 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
                            for p, v in zip(parameters, ls.estimate, strict=True))
         problem = build_problem(parameters, rows, smooth, relative_error)
         ls = fit_least_squares(problem, rows, max_steps=max_steps, throw=False)
-    post = None
+    cal = Calibration(config, rows, problem, ls, None, excluded)
     if mcmc and ls.converged:
-        from ._posterior import sample_posterior
-
-        post = sample_posterior(problem, ls, walkers=walkers, steps=steps, seed=seed, backend_path=backend,
-                                resume=resume, progress=progress)
-    return Calibration(config, rows, problem, ls, post, excluded)
+        cal = cal.with_posterior(walkers=walkers, steps=steps, seed=seed, backend=backend, resume=resume,
+                                 progress=progress)
+    return cal
 
 
 #: Refits after leaving out rows the fitted model cannot measure.

@@ -175,8 +175,9 @@ def test_responsivity_and_lens_loss_degeneracy_is_reported(config):
 
 def test_posterior_agrees_with_least_squares(example_fit):
     with pytest.warns(ft.ShortChainWarning):
-        post = ft.sample_posterior(example_fit.problem, example_fit.least_squares, walkers=16, steps=200, seed=3,
-                                   progress=False)
+        cal = example_fit.with_posterior(walkers=16, steps=200, seed=3)
+    post = cal.posterior
+    assert cal.least_squares is example_fit.least_squares and example_fit.posterior is None  # no refit, a copy
     ratio = post.std / example_fit.least_squares.sigma
     assert np.all((ratio > 0.7) & (ratio < 1.3)), ratio
     # medians need not equal the least-squares point (skew, sigma(theta) normalisation) but stay close
@@ -214,6 +215,8 @@ def test_unconverged_fit_is_never_silent(config):
     assert not cal.least_squares.converged and cal.least_squares.steps == 2
     with pytest.raises(ft.ConvergenceError, match="did not converge after 2 steps"):
         ft.fit_least_squares(cal.problem, cal.rows, max_steps=2)
+    with pytest.raises(ft.ConvergenceError, match="no posterior to sample"):
+        cal.with_posterior(walkers=8, steps=10)
 
 
 def test_calibrate_command_writes_everything(tmp_path, capsys):

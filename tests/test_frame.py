@@ -74,6 +74,17 @@ def test_monte_carlo_frames_match_the_analytic_noise_image(params, one_ray):
     assert 0.03 < np.std(ratio) < 0.055
     assert mc.frames_radial_m.shape == (2, ROWS, COLS)
     np.testing.assert_allclose(mc.radial_m, an.radial_m, atol=4 * float(np.max(an.depth_std_m)) / np.sqrt(300))
+    # A prepared scene renders the same frames (frame k of a key is frame k, however many are drawn)
+    # and the same noise image.
+    prepared = tj.prepare_frame(params, one_ray, returns)
+    np.testing.assert_array_equal(prepared.render(jax.random.key(1), 2, keep_frames=2).frames_radial_m,
+                                  mc.frames_radial_m)
+    np.testing.assert_allclose(prepared.predict().depth_std_m, an.depth_std_m, rtol=1e-12)
+    sampled = prepared.sample(jax.random.key(1), 2)
+    kept = mc.result.valid.transpose(2, 0, 1)
+    np.testing.assert_array_equal(sampled.valid, kept)
+    np.testing.assert_array_equal(sampled.radial_m, np.where(kept, mc.frames_radial_m, np.nan))
+    np.testing.assert_array_equal(sampled.amplitude_lsb, mc.result.amplitude_lsb.transpose(2, 0, 1))
 
 
 def test_a_flat_wall_falls_off_as_profile_times_cos4_times_incidence(params):

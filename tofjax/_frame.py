@@ -310,17 +310,96 @@ def predict_frame(params: Params, settings: FrameSettings, returns: Returns, pat
     return _predict_frame(params, settings, returns, pattern, smooth)
 
 
+class PreparedFrame(eqx.Module):
+    """A scene exposed once on a camera (:func:`prepare_frame`): the frame's chain, every pixel's
+    expected charges and its Monte Carlo per-pixel constants, so that frames (:meth:`render`) and
+    the noise image (:meth:`predict`) of the same scene and operating point cost only the chain
+    after the exposure. What a live view or a stream of training frames of a static scene needs."""
+
+    chain: Chain
+    sweep: Sweep  # one operating point per pixel, (rows, cols)
+    prepared: Prepared  # charges (rows, cols, phases) and the frames' constants (pixels flattened)
+    radial_true_m: Float[Array, "rows cols"]
+    direction: Float[Array, "rows cols 3"]
+    pattern: PixelPattern
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return tuple(self.radial_true_m.shape)
+
+    def render(self, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0, progress: bool = False) -> FrameResult:
+        """``frames`` Monte Carlo frames (:func:`render_frame`, which is ``prepare_frame(...).render(...)``)."""
+        check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases)
+        return self._wrap(_render_prepared(self, key, frames, keep_frames, progress))
+
+    def predict(self) -> FrameResult:
+        """The analytic frame, the noise image (:func:`predict_frame`)."""
+        return self._wrap(_predict_prepared(self.chain, self.sweep, self.prepared.charges))
+
+    def sample(self, key: PRNGKeyArray, frames: int = 1) -> NoisyFrames:
+        """Only the frames: ``frames`` noisy frames' radial distance, amplitude and validity, without
+        the per-pixel statistics of :meth:`render` (the frames :meth:`render` keeps for the same key)."""
+        check_counts(frames, frames, math.prod(self.shape), self.chain.n_phases)
+        return _sample_prepared(self.chain, self.prepared.consts, key, frames, self.shape)
+
+    def _wrap(self, result: Result) -> FrameResult:
+        # Outside the programs: the geometry and the pattern are passed on, not copied by a program.
+        return FrameResult(result, self.radial_true_m, self.direction, self.pattern)
+
+
+class NoisyFrames(eqx.Module):
+    """Noisy frames (:meth:`PreparedFrame.sample`), ``(frames, rows, cols)``: ``radial_m`` (NaN
+    where the pixel or the ADC saturated), ``amplitude_lsb``, ``valid``."""
+
+    radial_m: Float[Array, "frames rows cols"]
+    amplitude_lsb: Float[Array, "frames rows cols"]
+    valid: Array
+
+
+# Separate programs for the exposure, the frames' constants and the frames: in one, XLA on a CPU
+# fuses a producer into each of its consumers and evaluates it several times (one frame of 224 x 172
+# in one program: 32 ms). Under an outer jit they are traced into one program as usual.
+_setup_jit = eqx.filter_jit(lambda *args: _setup(*args))
+
+
 @eqx.filter_jit
-def _render_frame(params, settings, returns, key, frames, keep_frames, pattern, smooth, progress):
-    n = math.prod(returns.shape)
-    pattern, chain, sweep, charges, direction = _setup(params, settings, returns, pattern, smooth)
+def _frame_constants(chain, charges):
+    n = math.prod(charges.a.shape[:-1])
     flat = jax.tree_util.tree_map(lambda x: x.reshape((n,) + x.shape[2:]), charges)
-    consts = point_constants(chain, flat, jnp.arange(n, dtype=jnp.uint32),
-                             chain.limit.full_well_e.reshape(n))
-    sums, kept = run_blocks(frames_step(chain, key_words(key)), consts, n, frames, keep_frames, chain.n_phases,
-                            progress=progress)
-    result = assemble(chain, sweep, Prepared(charges, consts), sums, kept, frames)
-    return FrameResult(result, returns.radial_m, direction, pattern)
+    return point_constants(chain, flat, jnp.arange(n, dtype=jnp.uint32), chain.limit.full_well_e.reshape(n))
+
+
+def prepare_frame(params: Params, settings: FrameSettings, returns: Returns, pattern: PixelPattern | None = None, *,
+                  smooth: Smooth | None = None) -> PreparedFrame:
+    """Expose a scene once (arguments as :func:`predict_frame`): the :class:`PreparedFrame` renders
+    frames and the noise image of that scene and operating point without exposing it again."""
+    _check_frame(params, settings, returns)
+    pattern, chain, sweep, charges, direction = _setup_jit(params, settings, returns, pattern, smooth)
+    consts = _frame_constants(chain, charges)
+    return PreparedFrame(chain, sweep, Prepared(charges, consts), returns.radial_m, direction, pattern)
+
+
+@eqx.filter_jit
+def _render_prepared(frame: PreparedFrame, key, frames, keep_frames, progress) -> Result:
+    chain, n = frame.chain, math.prod(frame.shape)
+    sums, kept = run_blocks(frames_step(chain, key_words(key)), frame.prepared.consts, n, frames, keep_frames,
+                            chain.n_phases, progress=progress)
+    return assemble(chain, frame.sweep, frame.prepared, sums, kept, frames)
+
+
+@eqx.filter_jit
+def _predict_prepared(chain, sweep, charges) -> Result:
+    return analytic(chain, sweep, moments(chain, sweep, charges))
+
+
+@eqx.filter_jit
+def _sample_prepared(chain, consts, key, frames, shape) -> NoisyFrames:
+    n = math.prod(shape)
+    _, (_, phase, amplitude, valid) = run_blocks(frames_step(chain, key_words(key)), consts, n, frames, frames,
+                                                 chain.n_phases)
+    image = lambda x: jnp.moveaxis(x.reshape(shape + (frames,)), -1, 0)  # noqa: E731 - (pixels, frames) -> (frames, *shape)
+    radial = jnp.where(valid, phase * (chain.unambiguity_range_m / (2.0 * jnp.pi)), jnp.nan)
+    return NoisyFrames(image(radial), image(amplitude), image(valid))
 
 
 def render_frame(params: Params, settings: FrameSettings, returns: Returns, key: PRNGKeyArray, frames: int = 1, *,
@@ -332,12 +411,13 @@ def render_frame(params: Params, settings: FrameSettings, returns: Returns, key:
     valid fraction) and the first ``keep_frames`` frames whole (``FrameResult.frames_radial_m``).
 
     Arguments as :func:`predict_frame`, plus ``key`` (a ``jax.random`` key; the same key gives the
-    same frames), ``frames`` and ``keep_frames`` (static) and ``progress``.
+    same frames), ``frames`` and ``keep_frames`` (static) and ``progress``. Rendering the same
+    scene again (another key, more frames): :func:`prepare_frame` once, then its ``render``.
     """
     _check_frame(params, settings, returns)
-    n = math.prod(returns.shape)
-    check_counts(frames, keep_frames, n, params.pixel.n_phases)
-    return _render_frame(params, settings, returns, key, frames, keep_frames, pattern, smooth, progress)
+    check_counts(frames, keep_frames, math.prod(returns.shape), params.pixel.n_phases)
+    return prepare_frame(params, settings, returns, pattern, smooth=smooth).render(
+        key, frames, keep_frames=keep_frames, progress=progress)
 
 
 def sharded_map(fn, batch, *, devices=None):
