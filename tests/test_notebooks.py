@@ -59,8 +59,8 @@ def test_readme_links_every_notebook_with_one_line():
 def kernel():
     """One kernel for the notebooks, started once: each notebook starts from an empty namespace
     (``%reset``, figures closed, its own folder as the working directory) but shares the imports
-    and the compiled programs, which are most of a notebook's time in a fresh kernel (the eight:
-    190 s in eight kernels, 163 s in one, on the 2-core CI machine's kind)."""
+    and the compiled programs, which are most of a notebook's time in a fresh kernel (the eight, cold,
+    on a 2-core machine: 190 s in eight kernels, about 150 s in one)."""
     from jupyter_client.manager import KernelManager
 
     km = KernelManager(kernel_name="python3")

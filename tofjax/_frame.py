@@ -359,7 +359,7 @@ class NoisyFrames(eqx.Module):
 # Separate programs for the exposure, the frames' constants and the frames: in one, XLA on a CPU
 # fuses a producer into each of its consumers and evaluates it several times (one frame of 224 x 172
 # in one program: 32 ms). Under an outer jit they are traced into one program as usual.
-_setup_jit = eqx.filter_jit(lambda *args: _setup(*args))
+_setup_jit = eqx.filter_jit(_setup)
 
 
 @eqx.filter_jit
