@@ -267,6 +267,19 @@ def test_returns_npz_round_trip_and_refusals(params, tmp_path, one_ray):
         tj.load_returns(tmp_path / "none.npz")
 
 
+def test_a_depth_map_of_a_wall_is_the_wall(params, one_ray):
+    """tj.depth_returns of a flat wall's Z depth (or its radial distances) gives the returns of the
+    built-in wall: normals from the map's finite differences, paths and radiance; a map of another
+    shape is refused naming both shapes."""
+    wall = tj.scene_returns(params, one_ray, scenes.wall(1.3, 0.9))
+    for depth, radial in ((np.full((ROWS, COLS), 1.3), False), (np.asarray(wall.radial_m), True)):
+        got = tj.depth_returns(params, one_ray, depth, 0.9, radial=radial)
+        for name in ("path_m", "radiance_per_w", "ambient_reflectivity", "radial_m"):
+            np.testing.assert_allclose(getattr(got, name), getattr(wall, name), rtol=1e-9, err_msg=name)
+    with pytest.raises(ValueError, match=r"depth map has shape \(2, 3\), the camera \(21, 31\)"):
+        tj.depth_returns(params, one_ray, np.ones((2, 3)), 0.9)
+
+
 def test_ply_round_trip(tmp_path):
     pts = np.array([[0.0, 1.0, 2.0], [-0.5, 0.25, 3.0]])
     frameio.write_ply(tmp_path / "p.ply", pts, np.array([5.0, 6.0]))

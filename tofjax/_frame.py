@@ -120,10 +120,10 @@ def scene_returns(params: Params, settings: FrameSettings, geometry: SceneGeomet
 def depth_returns(params: Params, settings: FrameSettings, depth_m, reflectivity, *, radial: bool = False) -> Returns:
     """Every pixel's direct return from a depth map ``(rows, cols)`` (Z depth, or the radial
     distance with ``radial=True``) and a reflectivity map or number; one ray per pixel."""
-    rays = frame_rays(params, settings, 1)
+    shape = frame_shape(params)
     depth = jnp.asarray(depth_m, dtype=float)
-    if depth.shape != rays.image_height.shape:
-        raise ValueError(f"depth map has shape {depth.shape}, the camera {rays.image_height.shape} (rows, cols; "
+    if depth.shape != shape:
+        raise ValueError(f"depth map has shape {depth.shape}, the camera {shape} (rows, cols; "
                          "camera.optical_area_m / camera.pixel_pitch_m)")
     return _depth_returns(params, settings, depth, jnp.asarray(reflectivity, dtype=float), radial, depth.shape)
 
