@@ -16,7 +16,7 @@ WAVEFORMS = [("pulse", 0.5, "pulse", 0.5), ("pulse", 0.25, "pulse", 0.5), ("sine
              ("sine", 0.4, "pulse", 0.5), ("triangle", 0.3, "gauss_extended", 0.5), ("sawtooth", 0.3, "pulse", 0.5),
              ("gauss_extended", 0.25, "gauss_extended", 0.5), ("fourier", 0.25, "triangle", 0.6),
              ("pulse", 0.05, "pulse", 0.5)]
-DELAYS = np.random.default_rng(0).uniform(0.0, 3.0, 4001)
+DELAYS = np.random.default_rng(0).uniform(0.0, 3.0, 1001)  # random, so between the grid points
 
 
 def _waves(ill, ill_duty, ref, ref_duty):

@@ -19,6 +19,7 @@ import pytest
 
 import tofjax as tj
 from tofjax import frameio, scenes
+from tofjax.cli import main
 from tofjax._frame import frame_charges, _frame_chain
 from tofjax._pattern import mean_pattern
 
@@ -296,19 +297,26 @@ subpixel_samples = 2
 """
 
 
-def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "tofjax.cli", *args], capture_output=True, text=True, cwd=cwd,
-                          env={**os.environ, "TOFJAX_CACHE_DIR": "off"})
+def _cli(capsys, *args):
+    """``tofjax ARGS`` in this process (its programs are the ones the other tests compiled): the exit
+    status, stdout and stderr."""
+    capsys.readouterr()
+    try:
+        code = main(list(args))
+    except SystemExit as exc:  # argparse's own errors
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err
 
 
-def test_render_command_writes_every_output(tmp_path):
+def test_render_command_writes_every_output(tmp_path, capsys):
     cfg = tmp_path / "cam.toml"
     cfg.write_text(CONFIG)
     out = tmp_path / "out"
-    proc = _cli("render", "--scene", "box_on_floor:box_m=1.5", "--config", str(cfg), "--frames", "20",
-                "--keep-frames", "2", "--fixed-pattern", "--quiet", "--out", str(out), cwd=tmp_path)
-    assert proc.returncode == 0, proc.stderr
-    assert "21 x 31 pixels, 20 frames" in proc.stdout
+    code, stdout, stderr = _cli(capsys, "render", "--scene", "box_on_floor:box_m=1.5", "--config", str(cfg),
+                                "--frames", "20", "--keep-frames", "2", "--fixed-pattern", "--quiet", "--out", str(out))
+    assert code == 0, stderr
+    assert "21 x 31 pixels, 20 frames" in stdout
     data = np.load(out / "frame.npz")
     assert data["frames_radial_m"].shape == (2, ROWS, COLS)
     assert data["predicted_std_m"].shape == (ROWS, COLS)
@@ -326,11 +334,12 @@ def test_render_command_writes_every_output(tmp_path):
     (["--scene", "missing.npz"], "--scene missing.npz: no such file"),
     (["--scene", "wall", "--sun", "0,0"], "argument --sun: '0,0' is not a direction"),
 ])
-def test_render_refuses_bad_input_in_one_line(tmp_path, args, message):
-    proc = _cli("render", *args, "--out", str(tmp_path / "o"), "--check", cwd=tmp_path)
-    assert proc.returncode == 2
-    errors = [line for line in proc.stderr.splitlines() if line.startswith("tofjax: error:")]
-    assert len(errors) == 1 and message in errors[0] and "Traceback" not in proc.stderr
+def test_render_refuses_bad_input_in_one_line(tmp_path, capsys, monkeypatch, args, message):
+    monkeypatch.chdir(tmp_path)  # "missing.npz" is looked up here
+    code, _, stderr = _cli(capsys, "render", *args, "--out", str(tmp_path / "o"), "--check")
+    assert code == 2
+    errors = [line for line in stderr.splitlines() if line.startswith("tofjax: error:")]
+    assert len(errors) == 1 and message in errors[0] and "Traceback" not in stderr
 
 
 def test_sharded_over_two_cpu_devices_equals_unsharded(tmp_path):
