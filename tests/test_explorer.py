@@ -71,14 +71,14 @@ def test_a_change_updates_the_configuration_and_the_previews():
     assert ex.config.values["illumination"]["fov_deg"] == 60.0
     assert ex.preview["spot_area_m2"] == pytest.approx(math.pi * math.tan(math.radians(30)) ** 2, rel=1e-12)
     field = ex.fields["illumination.fov_deg"]
-    assert field.inputs[2].layout.display == "none"
+    assert field.inputs[2].layout.visibility == "hidden"  # hidden in place: the layout does not jump
     others = [x for f in ex.fields.values() if f is not field
               for x in (f.inputs[:2] if f.key.kind == "angle" else f.inputs)]
-    assert all(x.layout.display is None for x in others)  # hiding one input hides no other
+    assert all(x.layout.visibility is None for x in others)  # hiding one input hides no other
     field.mode.value = "hv"
     _set(ex, "illumination.fov_deg", 40.0, index=2)
     assert ex.config.values["illumination"]["fov_deg"] == [60.0, 40.0]
-    assert field.inputs[2].layout.display is None
+    assert field.inputs[2].layout.visibility is None
     assert ex.preview["spot_area_m2"] == pytest.approx(
         4 * math.tan(math.radians(30)) * math.tan(math.radians(20)), rel=1e-12)
 
@@ -87,8 +87,12 @@ def test_a_change_updates_the_configuration_and_the_previews():
     _set(ex, "camera.f_number", 2.8)
     assert ex.preview["focal_length_m"] == pytest.approx(focal, rel=1e-12)
     assert ex.preview["aperture_diameter_m"] == pytest.approx(focal / 2.8, rel=1e-12)
+    # The waveform preview's time axis is in ns at the configured frequency: 40 MHz spans twice 80 MHz.
+    span = np.ptp(ex.preview["waveforms"].axes[0].lines[0].get_xdata())
     _set(ex, "illumination_waveform.modulation_frequency_hz", 40.16e6)
     assert ex.preview["unambiguity_range_m"] == pytest.approx(299792458 / (2 * 40.16e6), rel=1e-12)
+    assert np.ptp(ex.preview["waveforms"].axes[0].lines[0].get_xdata()) == pytest.approx(2 * span, rel=1e-9)
+    assert span == pytest.approx(1e9 / 80.32e6, rel=1e-9) and "ns" in ex.preview["waveforms"].axes[0].get_xlabel()
     _set(ex, "illumination_waveform.extra_modulation_frequencies_hz", "60.24e6, 20e6")
     assert ex.config.modulation_frequencies_hz == [40.16e6, 60.24e6, 20e6]
     assert ex.config.params == tj.config_from_dict(ex.config.values).params
@@ -118,9 +122,14 @@ def test_invalid_values_show_the_message_instead_of_raising(dotted, value, index
     before = ex.config
     _set(ex, dotted, value, index)
     assert expected in ex.error and expected.split(" ")[0] in ex.message.value
-    assert ex.config is before and ex.calculate_button.disabled
-    ex.calculate_button.click()
-    assert ex.run is None  # nothing ran
+    assert ex.config is before and ex.calculate_button.disabled and "invalid" in ex.lamp.value
+    field = ex.fields[dotted]  # the message at the field too, and the field highlighted
+    assert html.escape(expected) in field.note.value and "tofjax-invalid" in field.box._dom_classes
+    untouched = ex.fields["scene.reflectivity"]
+    assert "tofjax-invalid" not in untouched.box._dom_classes and "&#9888;" not in untouched.note.value
+    ex.calculate()
+    assert ex.run is None and "cannot calculate: " in ex.message.value  # nothing ran, and it says why
+    assert html.escape(expected) in ex.message.value
     ex.save_button.click()
     assert "not saved" in ex.message.value
     # Another (valid) change does not hide the problem; fixing it clears the message.
@@ -128,6 +137,7 @@ def test_invalid_values_show_the_message_instead_of_raising(dotted, value, index
     assert ex.error is not None and ex.config is before
     ex.fields[dotted].set_value(before.values[dotted.split(".")[0]][dotted.split(".")[1]])
     assert ex.error is None and ex.message.value == "" and not ex.calculate_button.disabled
+    assert "tofjax-invalid" not in field.box._dom_classes and "ready" in ex.lamp.value
     assert ex.config.values["scene"]["reflectivity"] == 0.5
 
 
@@ -138,8 +148,8 @@ def test_any_number_in_any_float_field_is_accepted_or_explained(shared_explorer,
     ex = shared_explorer
     ex.fields[key.dotted].set_value(value)
     try:
-        if ex.error is None:
-            assert ex.config.values[key.section][key.name] == value
+        if ex.error is None:  # the field shows (and so holds) 12 significant digits
+            assert ex.config.values[key.section][key.name] == pytest.approx(value, rel=1e-11, abs=0.0)
         else:
             assert key.dotted in ex.error and ("allowed" in ex.error or "must be less than" in ex.error)
     finally:
@@ -169,17 +179,24 @@ def test_calculate_runs_the_sweep_with_busy_lamp_time_and_the_ticked_plots():
     _set(ex, "pixel.iterations", 40)
     ex.sweep.value = "integration_time"
     ex.plot_checkboxes["snr"].value = True
-    lamp = []
+    lamp, calculate = [], []
     ex.lamp.observe(lambda change: lamp.append(change["new"]), names="value")
-    ex.calculate_button.click()
+    ex.calculate_button.observe(lambda change: calculate.append(change["new"]), names="disabled")
+    ex.calculate_button.click()  # runs in a background thread
+    ex.calculate()  # a second press while it runs starts nothing
+    ex.wait()
     assert [("busy" in v, "ready" in v) for v in lamp] == [(True, False), (False, True)]
+    assert calculate == [True, False] and not ex.busy and ex.cancel_button.disabled
     assert ex.run.result.method == "mc" and ex.run.result.n_frames == 40
     np.testing.assert_allclose(ex.run.result.integration_time_s, np.linspace(0.2e-3, 5e-3, 12))
     assert list(ex.figures) == [n for n in plots.PLOTS if n in ("photon_transfer_curve", "snr", "amplitude",
                                                                   "depth_noise")]
     assert len(ex.plots_box.children) == len(ex.figures)
+    for image, fig in zip(ex.plots_box.children, ex.figures.values(), strict=True):  # titled, at their own size
+        assert fig.get_suptitle() and image.layout.width == f"{round(fig.get_figwidth() * 96)}px"
     assert ex.time_label.value.startswith("simulation time ") and "12 samples" in ex.summary.value
-    assert not ex.calculate_button.disabled and ex.message.value == ""
+    assert "at the nominal point" in ex.summary.value and ex.headlines["nominal_depth_std_m"] > 0
+    assert not ex.calculate_button.disabled and ex.message.value == "" and not ex.stale
 
     ex.method.value = "analytic"
     ex.sweep.value = "distance"
@@ -191,6 +208,10 @@ def test_calculate_runs_the_sweep_with_busy_lamp_time_and_the_ticked_plots():
     ex.calculate()
     assert ex.message.value == "" and ex.run.multifrequency.fusion == "inverse_variance"
     assert np.all(np.isnan(ex.run.multifrequency.wrong_unwrap_fraction))
+    # The summary's range is the plots' range: the extended one (the first frequency's named as such).
+    extended = float(ex.run.multifrequency.extended_range_m)
+    assert f"extended range {extended:.4g} m" in ex.summary.value
+    assert f"extended range {extended:.4g} m" in ex.derived.value
     ex.method.value = "mc"
     ex.calculate()
     assert "multifrequency_distance" in ex.figures and ex.run.multifrequency is not None
@@ -233,3 +254,58 @@ def test_saved_toml_round_trips_and_bad_files_are_reported(tmp_path):
     assert "configuration file not found" in other.message.value
     other.save(tmp_path / "no_such_dir" / "x.toml")
     assert "cannot write" in other.message.value
+
+
+def test_a_run_can_be_cancelled_and_changed_settings_mark_it_stale(tmp_path):
+    ex = tj.explorer()
+    ex.path.value = str(tmp_path / "camera.toml")
+    _set(ex, "scene.samples", 12)
+    _set(ex, "pixel.iterations", 40)
+    ex.calculate()
+    first = ex.run
+    assert not ex.stale and ex.stale_note.value == ""
+    # Any change after the run marks the plots and the summary stale; changing it back unmarks them.
+    _set(ex, "scene.reflectivity", 0.5)
+    assert ex.stale and "stale" in ex.stale_note.value and "tofjax-stale" in ex.plots_box._dom_classes
+    _set(ex, "scene.reflectivity", 0.9)
+    ex.method.value = "analytic"
+    assert ex.stale
+    ex.method.value = "mc"
+    assert not ex.stale and "tofjax-stale" not in ex.summary._dom_classes
+
+    # A long Monte Carlo, cancelled between its chunks: nothing of it replaces the last run.
+    _set(ex, "scene.samples", 400)
+    _set(ex, "pixel.iterations", 40000)
+    ex.calculate_button.click()
+    while ex.busy and ex.progress.value == 0:  # its first chunk has been reported
+        ex.wait(0.05)
+    assert ex.busy and ex.calculate_button.disabled and not ex.cancel_button.disabled
+    ex.cancel_button.click()
+    ex.wait(60)
+    assert not ex.busy and "cancelled" in ex.message.value and ex.run is first
+    assert ex.progress.value < ex.progress.max and not ex.calculate_button.disabled and ex.stale
+
+    # The figures and the report of the last run, beside the TOML file.
+    written = ex.save_figures()
+    assert [p.name for p in written] == [f"distance_{n}.png" for n in ex.figures] and all(p.exists() for p in written)
+    report = ex.write_report()
+    assert report.exists() and tj.sweepfile.read_sweep(report.parent / "sweep.csv").n_rows == 12
+
+    # Save asks before it overwrites; Reset brings every field back to the defaults.
+    ex.save()
+    assert "saved" in ex.message.value
+    _set(ex, "scene.reflectivity", 0.25)
+    ex.save_button.click()
+    assert "exists: press Overwrite" in ex.message.value and ex.overwrite_button.layout.display is None
+    assert tj.load_config(ex.path.value).values["scene"]["reflectivity"] == 0.9
+    ex.overwrite_button.click()
+    assert "saved" in ex.message.value and tj.load_config(ex.path.value).values["scene"]["reflectivity"] == 0.25
+    ex.reset_button.click()
+    assert ex.config.values == tj.Config().values and ex.message.value == "reset to the defaults"
+    assert ex.fields["scene.reflectivity"].value() == tj.Config().values["scene"]["reflectivity"]
+
+
+def test_numbers_show_at_sensible_precision():
+    ex = tj.explorer()
+    raw = tj.Config().values["camera"]["optical_area_m"][1]  # 172 x 17.5 um in floating point
+    assert raw != 0.00301 and ex.fields["camera.optical_area_m"].inputs[1].value == 0.00301

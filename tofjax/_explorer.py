@@ -1,24 +1,33 @@
 """The interactive explorer: the thesis' GUI (§4.3, Figs 4.8-4.11) as an ipywidgets app.
 
-Four tabs as in the thesis: **Main** (background light, sweep with from/to/samples/iterations,
-method, plot choice, Calculate with a ready/busy lamp and the simulation time, TOML load/save),
+Four tabs as in the thesis: **Main** (background light, the nominal distance, illuminance and
+integration time, sweep with from/to/samples/iterations, method, plot choice, Calculate and Cancel
+with a progress bar, a ready/busy lamp and the simulation time, the messages, TOML load/save/reset,
+the result's headline numbers, its plots, "save figures" and "write report"),
 **Pixel** (pixel, illumination and reference waveforms, with a live waveform preview),
 **Scene & Camera** (illumination unit, scene, camera, with a live FoV preview and the derived lens)
 and **Physical & ADC** (physical constants, read-only, and the ADC).
 
 Every configuration key of the schema has one input with its unit and allowed range next to it.
 Each change re-validates the whole configuration (:func:`tofjax.config_from_dict`): an invalid
-value shows the validation message and disables Calculate instead of raising, and the explorer
-keeps the last valid configuration. The logic lives here, not in a notebook, so that the tests can
-drive it headlessly: set widget values, press buttons with ``.click()``, read :attr:`config`,
-:attr:`preview`, :attr:`figures` and :attr:`message`.
+value shows the validation message beside Calculate and at the field (highlighted), disables
+Calculate instead of raising, and the explorer keeps the last valid configuration; the previews
+say that they show it. A run goes in a background thread (the kernel stays responsive): one run at
+a time, its progress per chunk of frames, cancellable between chunks. Plots and summary of a run
+are marked stale as soon as the settings differ from the run's.
+
+The logic lives here, not in a notebook, so that the tests can drive it headlessly: set widget
+values, press buttons with ``.click()`` (Calculate's button runs in the background: :meth:`wait`),
+read :attr:`config`, :attr:`preview`, :attr:`figures` and :attr:`message`.
 """
 
 from __future__ import annotations
 
 import copy
 import html
+import logging
 import os
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -30,10 +39,11 @@ except ImportError as err:  # pragma: no cover - exercised only without the extr
     raise ImportError('the explorer needs ipywidgets: pip install "tofjax[notebooks]"') from err
 
 from . import plots
+from . import progress as _progress
 from ._config import SWEEP_RANGE_KEYS, Config, config_from_dict, load_config
 from ._optics import lens, spot_area_m2
 from ._params import PhysicalConstants
-from ._run import run_sweep
+from ._run import run_sweep, sweep_file_contents
 from ._schema import KEYS, ConfigError, Key, keys_of
 
 #: Sweep choices as the thesis' GUI names them (§4.3).
@@ -42,7 +52,9 @@ SWEEP_CHOICES = (("Distance", "distance"), ("Background light", "illuminance"),
 #: Plots ticked when the explorer opens.
 DEFAULT_PLOTS = ("depth_noise", "amplitude", "photon_transfer_curve")
 
-_MAIN_KEYS = ("scene.background", "scene.samples", "pixel.iterations",
+#: The operating point the sweeps vary one quantity of (thesis Fig 4.8: on the Main tab).
+_NOMINAL_KEYS = ("scene.distance_m", "scene.illuminance_lx", "scene.integration_time_s")
+_MAIN_KEYS = ("scene.background", *_NOMINAL_KEYS, "scene.samples", "pixel.iterations",
               *(f"scene.{k}" for pair in SWEEP_RANGE_KEYS.values() for k in pair))
 _TAB_SECTIONS = {
     "Pixel": ("pixel", "illumination_waveform", "reference_waveform"),
@@ -63,10 +75,56 @@ def _narrow() -> w.Layout:
 
 _READY = '<span style="color:#2a2">&#9679;</span> ready'
 _BUSY = '<span style="color:#d22">&#9679;</span> busy'
+_INVALID = '<span style="color:#c80">&#9679;</span> invalid settings'
+#: The pixels per inch the plots are drawn at and shown at (no scaling: sharp).
+_PLOT_DPI = 96
+#: Styles the widgets' classes use (the stale run, the highlighted field).
+_STYLE = ("<style>.tofjax-stale{opacity:0.4}.tofjax-invalid input,.tofjax-invalid select"
+          "{outline:2px solid #c00;background:#fff0f0}</style>")
+_STALE = ("<b style='color:#c60'>&#9888; stale</b>: the settings changed after this run; the summary and "
+          "the plots below are of the previous settings. Calculate to update them.")
 
 
 def _error_html(text: str) -> str:
     return f'<span style="color:#c00">{html.escape(text)}</span>'
+
+
+def _shown(value: Any) -> Any:
+    """A float as the field shows it: 12 significant digits (0.00301, not 0.0030099999999999997)."""
+    if isinstance(value, float) and np.isfinite(value):
+        return float(f"{value:.12g}")
+    return value
+
+
+class _Cancelled(Exception):
+    """Raised in the Monte Carlo's progress callback when Cancel was pressed: ends the run."""
+
+
+class _RunProgress:
+    """The reporter of a run (:func:`tofjax.progress.reporting`): moves the bar per chunk of frames
+    and ends the run (:class:`_Cancelled`) between chunks once ``cancel`` is set."""
+
+    def __init__(self, bar, cancel: threading.Event):
+        self.bar, self.cancel = bar, cancel
+        self.total, self.done = 1.0, 0.0
+
+    def update(self, n: float = 1) -> None:
+        self.done += n
+        self.bar.max = max(self.total, 1.0)
+        self.bar.value = min(self.done, self.total)
+        self.bar.description = f"{100 * self.done / max(self.total, 1.0):.0f} %"
+        if self.cancel.is_set():
+            raise _Cancelled
+
+    def close(self) -> None:
+        pass
+
+
+class _QuietCallbackErrors(logging.Filter):
+    """JAX logs the traceback of a failed host callback; a cancel is not a failure."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "callback failed" not in record.getMessage()
 
 
 class _Field:
@@ -74,6 +132,7 @@ class _Field:
 
     def __init__(self, key: Key, value: Any, on_change):
         self.key = key
+        value = _shown(value) if key.kind != "pair" else [_shown(v) for v in value]
         common = dict(description=key.name, style=_DESCRIPTION, tooltip=key.doc)
         self.mode = None
         if key.kind == "float":
@@ -102,13 +161,26 @@ class _Field:
                            w.FloatText(value=second, layout=_narrow())]
             self.mode.observe(lambda _change: self._show_second(), names="value")
             self._show_second()
-        self.note = w.HTML(f"<small>[{html.escape(key.unit)}] {html.escape(key.range_text())}</small>")
+        self._range_note = f"<small style='white-space:nowrap'>[{html.escape(key.unit)}] {html.escape(key.range_text())}</small>"
+        self.note = w.HTML(self._range_note, layout=w.Layout(flex="0 0 auto"))
         self.box = w.HBox([*self.inputs, self.note])
+        self.box.add_class(f"tofjax-key-{key.section}-{key.name}")  # for a browser test's selectors
         for widget in self.inputs:
             widget.observe(lambda _change: on_change(self), names="value")
 
     def _show_second(self) -> None:
-        self.inputs[2].layout.display = None if self.mode.value == "hv" else "none"
+        # Hidden, not removed: switching diagonal / h x v does not move the layout.
+        self.inputs[2].layout.visibility = None if self.mode.value == "hv" else "hidden"
+
+    def show_error(self, text: str | None) -> None:
+        """The message at the field (highlighted), or its unit and range again (``None``)."""
+        if text is None:
+            self.note.value = self._range_note
+            self.box.remove_class("tofjax-invalid")
+        else:
+            self.note.value = (f"<small style='color:#c00;white-space:normal'>&#9888; {html.escape(text)}</small>"
+                               f"<br>{self._range_note}")
+            self.box.add_class("tofjax-invalid")
 
     def value(self) -> Any:
         """The value the inputs hold, in configuration form; :class:`ConfigError` if text does not parse."""
@@ -134,14 +206,14 @@ class _Field:
         elif self.key.kind == "float_list":
             self.inputs[0].value = ", ".join(repr(v) for v in value)
         elif self.key.kind == "pair":
-            self.inputs[0].value, self.inputs[1].value = value
+            self.inputs[0].value, self.inputs[1].value = (_shown(v) for v in value)
         elif self.key.kind == "angle":
             diagonal = np.ndim(value) == 0
             self.mode.value = "diagonal" if diagonal else "hv"
-            self.inputs[1].value, self.inputs[2].value = (value, value) if diagonal else value
+            self.inputs[1].value, self.inputs[2].value = (_shown(v) for v in ((value, value) if diagonal else value))
             self._show_second()
         else:
-            self.inputs[0].value = value
+            self.inputs[0].value = _shown(value)
 
 
 class Explorer:
@@ -154,11 +226,14 @@ class Explorer:
     **Attributes** (for scripting and tests):
     - ``config``: the last valid configuration; ``error``: the current validation message or ``None``.
     - ``fields``: dotted key -> its input (every key of the schema).
-    - ``sweep``, ``method``, ``seed``, ``plot_checkboxes``, ``calculate_button``, ``load_button``,
-      ``save_button``, ``path``: the Main tab's controls; ``lamp`` and ``time_label`` show
-      ready/busy and the simulation time.
+    - ``sweep``, ``method``, ``seed``, ``plot_checkboxes``, ``calculate_button``, ``cancel_button``,
+      ``progress``, ``load_button``, ``save_button``, ``reset_button``, ``path``: the Main tab's
+      controls; ``lamp`` and ``time_label`` show ready/busy and the simulation time; ``message``
+      (beside Calculate) says what the last action did or why it could not.
     - ``preview``: the live preview figures (``"waveforms"``, ``"fov"``) and derived numbers.
-    - ``run``: the last :class:`tofjax._run.Run`; ``figures``: plot name -> Figure of the last run.
+    - ``run``: the last :class:`tofjax._run.Run`; ``figures``: plot name -> Figure of the last run;
+      ``headlines``: its headline numbers (:func:`tofjax.report.headlines`); ``busy``: a run is going;
+      ``stale``: the settings differ from the last run's.
     """
 
     def __init__(self, config: Config | str | os.PathLike | None = None):
@@ -174,7 +249,13 @@ class Explorer:
         self._quiet = False
         self.run = None
         self.figures: dict = {}
+        self.headlines: dict = {}
         self.preview: dict = {}
+        self.busy = False
+        self.stale = False
+        self._cancel = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._overwrite: Path | None = None
         self.fields = {k.dotted: _Field(k, self._raw[k.section][k.name], self._changed) for k in KEYS}
 
         self.sweep = w.Dropdown(options=SWEEP_CHOICES, value="distance", description="sweep", style=_DESCRIPTION,
@@ -185,30 +266,58 @@ class Explorer:
         self.seed = w.IntText(value=0, description="seed", style=_DESCRIPTION, layout=_wide())
         self.plot_checkboxes = {
             name: w.Checkbox(value=name in DEFAULT_PLOTS, description=f"{name.replace('_', ' ')} ({ref})",
-                             indent=False, layout=w.Layout(width="340px"))
+                             indent=False, layout=w.Layout(width="auto"))
             for name, (_, _, ref) in plots.PLOTS.items()
         }
         self.calculate_button = w.Button(description="Calculate", button_style="primary", icon="play")
+        self.cancel_button = w.Button(description="Cancel", icon="stop", disabled=True,
+                                      tooltip="stop the run after its current chunk of frames")
+        self.progress = w.FloatProgress(value=0.0, min=0.0, max=1.0, description="", bar_style="info",
+                                        layout=w.Layout(width="220px", visibility="hidden"))
         self.lamp = w.HTML(_READY)
         self.time_label = w.HTML("")
-        self.path = w.Text(value="camera.toml", description="TOML file", style=_DESCRIPTION, layout=_wide())
+        self.message = w.HTML("", layout=w.Layout(min_height="1.6em"))
+        self.path = w.Text(value="camera.toml", description="TOML file", style={"description_width": "70px"},
+                           layout=w.Layout(width="520px"))
         self.load_button = w.Button(description="Load", icon="folder-open")
         self.save_button = w.Button(description="Save", icon="save")
-        self.message = w.HTML("")
+        self.overwrite_button = w.Button(description="Overwrite", button_style="warning",
+                                         layout=w.Layout(display="none"))
+        self.reset_button = w.Button(description="Reset to defaults", icon="undo")
+        self.figures_button = w.Button(description="Save figures", icon="image", disabled=True,
+                                       tooltip="the plots of the last run as PNG files, into the folder of the TOML file")
+        self.report_button = w.Button(description="Write report", icon="file", disabled=True,
+                                      tooltip="the run's tofjax-sweep CSV, the report's plots and report.html, "
+                                              "into a report_<sweep> folder beside the TOML file")
+        self.stale_note = w.HTML("")
         self.summary = w.HTML("")
-        self.plots_box = w.VBox([])
+        self.plots_box = w.GridBox([], layout=w.Layout(grid_template_columns="repeat(auto-fill, minmax(620px, 1fr))",
+                                                        grid_gap="8px"))
         self.waveform_image = w.Image(format="png")
         self.fov_image = w.Image(format="png")
         self.derived = w.HTML("")
+        self._tab_notes: list = []
 
-        self.sweep.observe(lambda _c: self._sweep_changed(), names="value")
-        self.calculate_button.on_click(lambda _b: self.calculate())
+        self.sweep.observe(lambda _c: (self._sweep_changed(), self._refresh_stale()), names="value")
+        for control in (self.method, self.seed):
+            control.observe(lambda _c: self._refresh_stale(), names="value")
+        self.calculate_button.on_click(lambda _b: self.calculate(wait=False))
+        self.cancel_button.on_click(lambda _b: self.cancel())
         self.load_button.on_click(lambda _b: self.load())
         self.save_button.on_click(lambda _b: self.save())
+        self.overwrite_button.on_click(lambda _b: self.save(overwrite=True))
+        self.reset_button.on_click(lambda _b: self.reset())
+        self.figures_button.on_click(lambda _b: self.save_figures())
+        self.report_button.on_click(lambda _b: self.write_report())
+        self.path.observe(lambda _c: self._hide_overwrite(), names="value")
 
+        for widget, name in ((self.message, "message"), (self.plots_box, "plots"), (self.progress, "progress"),
+                             (self.summary, "summary"), (self.stale_note, "stale-note"),
+                             (self.waveform_image, "waveform-preview"), (self.fov_image, "fov-preview")):
+            widget.add_class(f"tofjax-{name}")  # for a browser test's selectors
         self.tabs = w.Tab(children=[self._main_tab(), *(self._section_tab(t) for t in _TAB_SECTIONS)],
                           titles=["Main", *_TAB_SECTIONS])
-        self.widget = w.VBox([w.HTML("<b>tofjax</b>: ToF camera performance model"), self.tabs, self.message])
+        self.widget = w.VBox([w.HTML(_STYLE + "<b>tofjax</b>: ToF camera performance model"), self.tabs])
         self._sweep_changed()
         self._update_previews()
 
@@ -218,14 +327,21 @@ class Explorer:
 
     def _main_tab(self):
         settings = w.VBox([
-            *self._rows(["scene.background"]), self.sweep,
+            *self._rows(["scene.background", *_NOMINAL_KEYS]), self.sweep,
             *self._rows(f"scene.{k}" for pair in SWEEP_RANGE_KEYS.values() for k in pair),
             *self._rows(["scene.samples", "pixel.iterations"]), self.method, self.seed,
-            w.HBox([self.calculate_button, self.lamp, self.time_label]),
-            w.HBox([self.path, self.load_button, self.save_button]),
         ])
-        choice = w.VBox([w.HTML("<b>Plots to generate</b> (Table 4.9)"), *self.plot_checkboxes.values()])
-        return w.VBox([w.HBox([settings, choice]), self.summary, self.plots_box])
+        choice = w.VBox([w.HTML("<b>Plots to generate</b> (Table 4.9)"), *self.plot_checkboxes.values()],
+                        layout=w.Layout(min_width="300px"))
+        actions = w.VBox([
+            w.HBox([self.calculate_button, self.cancel_button, self.progress, self.lamp, self.time_label],
+                   layout=w.Layout(align_items="center")),
+            self.message,
+            w.HBox([self.path, self.load_button, self.save_button, self.overwrite_button, self.reset_button]),
+        ])
+        results = w.HBox([self.figures_button, self.report_button])
+        return w.VBox([w.HBox([settings, choice], layout=w.Layout(flex_flow="row wrap")), actions,
+                       self.stale_note, self.summary, results, self.plots_box])
 
     def _section_tab(self, title: str):
         rows = []
@@ -241,7 +357,10 @@ class Explorer:
             table = "".join(f"<tr><td>{name}</td><td>{float(getattr(constants, name)):.10g} {unit}</td></tr>"
                             for name, unit in _CONSTANT_UNITS.items())
             side = [w.HTML(f"<b>Physical constants</b> (Table 4.1, exact SI values; fixed)<table>{table}</table>")]
-        return w.HBox([w.VBox(rows), w.VBox(side)])
+        if title != "Physical & ADC":  # the previews say when they show the last valid settings
+            self._tab_notes.append(w.HTML(""))
+            side.insert(0, self._tab_notes[-1])
+        return w.HBox([w.VBox(rows), w.VBox(side)], layout=w.Layout(flex_flow="row wrap"))
 
     def _repr_mimebundle_(self, **kwargs):
         return self.widget._repr_mimebundle_(**kwargs)
@@ -261,17 +380,55 @@ class Explorer:
                 raise ConfigError(next(iter(self._unparsed.values())))
             config = config_from_dict(self._raw)
         except ConfigError as err:
-            self._set_error(str(err))
+            self._set_error(str(err), field)
             return
         self.config = config
         self._set_error(None)
         self._update_previews(self._stale)
         self._stale = set()
 
-    def _set_error(self, text: str | None) -> None:
+    def _set_error(self, text: str | None, changed: _Field | None = None) -> None:
+        """Show (or clear) a validation message: beside Calculate, at the fields it names (or the one
+        just changed), above the previews; Calculate is disabled while it stands."""
         self.error = text
+        for field in self.fields.values():
+            named = text is not None and (field is changed or self._names(text, field.key.dotted))
+            field.show_error(text if named else None)
         self.message.value = "" if text is None else _error_html(text)
-        self.calculate_button.disabled = text is not None
+        note = "" if text is None else _error_html(f"invalid value: {text}. The previews show the last valid settings.")
+        for tab_note in self._tab_notes:
+            tab_note.value = note
+        self._controls()
+        self._refresh_stale()
+
+    @staticmethod
+    def _names(text: str, dotted: str) -> bool:
+        i = text.find(dotted)
+        while i >= 0:
+            end = i + len(dotted)
+            if (i == 0 or not (text[i - 1].isalnum() or text[i - 1] in "._")) and \
+                    (end == len(text) or not (text[end].isalnum() or text[end] == "_")):
+                return True
+            i = text.find(dotted, i + 1)
+        return False
+
+    def _controls(self) -> None:
+        """Buttons and lamp from the state: Calculate only when idle and valid; Cancel only when busy."""
+        self.calculate_button.disabled = self.busy or self.error is not None
+        self.cancel_button.disabled = not self.busy
+        self.lamp.value = _BUSY if self.busy else (_INVALID if self.error is not None else _READY)
+        has_run = self.run is not None and not self.busy
+        self.figures_button.disabled = not (has_run and self.figures)
+        self.report_button.disabled = not has_run
+
+    def _refresh_stale(self) -> None:
+        run = self.run
+        self.stale = run is not None and (self.error is not None or run.config.values != self.config.values
+                                          or run.sweep.variable != self.sweep.value or run.method != self.method.value
+                                          or (run.method == "mc" and run.seed != self.seed.value))
+        self.stale_note.value = _STALE if self.stale else ""
+        for box in (self.summary, self.plots_box):
+            (box.add_class if self.stale else box.remove_class)("tofjax-stale")
 
     def _sweep_changed(self) -> None:
         variable = self.sweep.value
@@ -292,73 +449,171 @@ class Explorer:
         distance = float(params.scene.distance_m)
         if sections is None or sections & {"illumination", "illumination_waveform", "reference_waveform"}:
             self.preview["waveforms"] = plots.waveforms(params)
-            self.waveform_image.value = plots.to_png(self.preview["waveforms"], dpi=72)
+            self.waveform_image.value, self.waveform_image.layout = self._png(self.preview["waveforms"])
         if sections is None or sections & {"illumination", "scene"}:
             self.preview["fov"] = plots.fov_footprint(params)
-            self.fov_image.value = plots.to_png(self.preview["fov"], dpi=60)
+            self.fov_image.value, self.fov_image.layout = self._png(self.preview["fov"], scale=0.62)
         focal = lens(params.camera)
         p = self.preview
         p.update(spot_area_m2=float(spot_area_m2(params.illumination, distance)),
                  focal_length_m=float(focal.focal_length_m), aperture_diameter_m=float(focal.diameter_m),
                  unambiguity_range_m=float(params.unambiguity_range_m))
+        freqs = self.config.modulation_frequencies_hz
+        extended = ""
+        if len(freqs) > 1:
+            from ._multifrequency import extended_range_m
+
+            p["extended_range_m"] = float(extended_range_m(freqs, params.constants.speed_of_light_m_per_s))
+            extended = f"; with {len(freqs)} frequencies the extended range {p['extended_range_m']:.4g} m"
         self.derived.value = (
             f"lens (from the diagonal FoV, f-number and sensor size, §4.2.5): focal length "
-            f"{1e3 * p['focal_length_m']:.3f} mm, aperture {1e3 * p['aperture_diameter_m']:.3f} mm<br>"
+            f"{1e3 * p['focal_length_m']:.4g} mm, aperture {1e3 * p['aperture_diameter_m']:.4g} mm<br>"
             f"spot area at {distance:g} m: {p['spot_area_m2']:.4g} m&sup2;; "
-            f"unambiguity range {p['unambiguity_range_m']:.4f} m")
+            f"unambiguity range {p['unambiguity_range_m']:.4g} m{extended}")
+
+    @staticmethod
+    def _png(fig, scale: float = 1.0):
+        """PNG bytes of ``fig`` and a layout that shows them at their own size (sharp)."""
+        dpi = _PLOT_DPI * scale
+        width, height = (round(x * dpi) for x in fig.get_size_inches())
+        return plots.to_png(fig, dpi=dpi), w.Layout(width=f"{width}px", height=f"{height}px")
 
     # --- actions ------------------------------------------------------------------------------
-    def calculate(self) -> None:
-        """Run the selected sweep (the Calculate button) and draw the ticked plots."""
+    def calculate(self, wait: bool = True) -> None:
+        """Run the selected sweep and draw the ticked plots (the Calculate button: in a background
+        thread, ``wait=False``; :meth:`wait` joins it). One run at a time: while one goes, this says
+        so and returns."""
+        if self.busy:
+            self.message.value = _error_html("a run is going: wait for it or press Cancel")
+            return
         if self.error is not None:
+            self.message.value = _error_html(f"cannot calculate: {self.error}")
             return
         if self.seed.value < 0:
             self.message.value = _error_html(f"seed = {self.seed.value} is out of range: allowed integer >= 0")
             return
-        self.lamp.value, self.calculate_button.disabled = _BUSY, True
+        config, method, seed = self.config, self.method.value, self.seed.value
+        sweep = config.sweep(self.sweep.value)
+        names = self.selected_plots()
+        self.busy = True
+        self._cancel.clear()
+        self._controls()
         self.time_label.value = ""
+        self.progress.value, self.progress.description = 0.0, "starting" if method == "mc" else ""
+        self.progress.layout.visibility = "visible" if method == "mc" else "hidden"
+        self.message.value = (f"running: {sweep.samples} samples x {config.iterations} frames (Monte Carlo)" if method == "mc"
+                              else f"running: {sweep.samples} samples (analytic)")
+        if wait:
+            self._work(config, sweep, method, seed, names)
+        else:
+            self._thread = threading.Thread(target=self._work, args=(config, sweep, method, seed, names), daemon=True)
+            self._thread.start()
+
+    def wait(self, timeout: float | None = None) -> None:
+        """Wait for a run started with the Calculate button (``calculate(wait=False)``)."""
+        if self._thread is not None:
+            self._thread.join(timeout)
+
+    def cancel(self) -> None:
+        """Stop the running Monte Carlo after its current chunk of frames (the Cancel button)."""
+        if self.busy:
+            self._cancel.set()
+            self.message.value = "cancelling after the current chunk of frames ..."
+
+    def _work(self, config, sweep, method, seed, names) -> None:
+        """The run (in the background thread for the button): never raises; the outcome is a message."""
+        quiet = _QuietCallbackErrors()
+        logger = logging.getLogger("jax._src.debugging")
+        logger.addFilter(quiet)
         try:
-            run = run_sweep(self.config, self.config.sweep(self.sweep.value), self.method.value, seed=self.seed.value,
-                            keep_frames=200)
-        except ValueError as err:
-            self.message.value = _error_html(str(err))
+            with _progress.reporting(_RunProgress(self.progress, self._cancel)):
+                run = run_sweep(config, sweep, method, seed=seed, keep_frames=200, progress=method == "mc")
+            figures = self._draw(run, names)
+            from .report import headlines
+
+            numbers = headlines(config.params, run.result)
+        except Exception as err:  # noqa: BLE001 - a background run must report, not vanish
+            if self._cancel.is_set():
+                self._finish("cancelled: the summary and plots below are still those of the previous run")
+            else:
+                text = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+                self._finish(_error_html(f"the run failed: {text}"))
             return
         finally:
-            self.lamp.value, self.calculate_button.disabled = _READY, self.error is not None
-        self.message.value = ""
-        self.run = run
-        figures = {name: plots.PLOTS[name][0](run.result) for name in self.selected_plots()}
-        if run.multifrequency is not None and run.sweep.variable == "distance":
-            figures["multifrequency_distance"] = plots.multifrequency_distance(run.multifrequency)
-        self.figures = figures
-        self.plots_box.children = [w.Image(value=plots.to_png(fig, dpi=80), format="png") for fig in figures.values()]
+            logger.removeFilter(quiet)
+        self.run, self.figures, self.headlines = run, figures, numbers
+        children = []
+        for fig in figures.values():  # at their own size, in a grid; titled (suptitle)
+            png, layout = self._png(fig)
+            children.append(w.Image(value=png, format="png", layout=layout))
+        self.plots_box.children = children
         self.time_label.value = f"simulation time {run.elapsed_s:.2f} s"
-        self.summary.value = self._summary(run)
+        self.summary.value = self._summary(run, numbers)
+        self._finish("")
+
+    def _finish(self, message: str) -> None:
+        self.busy = False
+        self.message.value = message
+        self.progress.layout.visibility = "hidden"
+        self._controls()
+        self._refresh_stale()
 
     @staticmethod
-    def _summary(run) -> str:
+    def _draw(run, names) -> dict:
+        figures = {}
+        for name in names:
+            func, _, ref = plots.PLOTS[name]
+            figures[name] = func(run.result)
+            figures[name].suptitle(f"{name.replace('_', ' ')} ({ref})", fontsize=10)
+        if run.multifrequency is not None and run.sweep.variable == "distance":
+            fig = plots.multifrequency_distance(run.multifrequency)
+            if not fig.get_suptitle():
+                fig.suptitle("several modulation frequencies: unwrapped distance (§2.2)", fontsize=10)
+            figures["multifrequency_distance"] = fig
+        return figures
+
+    @staticmethod
+    def _summary(run, numbers: dict) -> str:
         r = run.result
         valid = np.asarray(r.valid_fraction)
-        std = np.asarray(r.depth_std_m)
+        std = np.asarray(r.depth_std_m if run.multifrequency is None else run.multifrequency.depth_std_m)
         kind = f"Monte Carlo, {r.n_frames} frames per sample" if r.method == "mc" else "analytic"
         noise = (f"depth noise {1e3 * np.nanmin(std):.3g}-{1e3 * np.nanmax(std):.3g} mm"
                  if np.any(np.isfinite(std)) else "no valid sample")
-        return (f"{len(valid)} samples ({kind}); {noise}; {np.mean(valid == 1):.0%} of the samples fully valid; "
-                f"unambiguity range {float(r.unambiguity_range_m):.4f} m")
+        if run.multifrequency is not None:
+            freqs = run.config.modulation_frequencies_hz
+            ranges = f"extended range {float(run.multifrequency.extended_range_m):.4g} m " \
+                     f"({len(freqs)} frequencies, {run.multifrequency.fusion} fusion; unambiguity range of the first " \
+                     f"{float(r.unambiguity_range_m):.4g} m)"
+        else:
+            ranges = f"unambiguity range {float(r.unambiguity_range_m):.4g} m"
+        lines = [f"{len(valid)} samples ({kind}); {noise}; {np.mean(valid == 1):.0%} of the samples fully valid; "
+                 f"{ranges}"]
+        n = numbers
+
+        def at(key, unit):
+            return "not reached" if n.get(key) is None else f"{n[key]:.3g} {unit}"
+
+        lines.append(
+            f"at the nominal point ({n['nominal_distance_m']:.3g} m, {n['nominal_illuminance_lx']:.3g} lx, "
+            f"{1e3 * n['nominal_integration_time_s']:.3g} ms): depth noise {1e3 * n['nominal_depth_std_m']:.3g} mm "
+            f"({100 * n['nominal_relative_depth_std']:.2g} %), amplitude {n['nominal_amplitude_lsb']:.4g} LSB. "
+            f"Valid from: {at('valid_from_m', 'm')}; 1 % depth noise at: {at('relative_noise_1pct_at_m', 'm')}; "
+            f"2 % at: {at('relative_noise_2pct_at_m', 'm')}; SBI engages at: {at('sbi_engages_at_lx', 'lx')}; "
+            f"the pixel saturates at: {at('pixel_saturates_at_lx', 'lx')}")
+        return "<br>".join(html.escape(line) for line in lines)
 
     def _path(self, path) -> Path:
         if path is not None:
             self.path.value = str(path)
         return Path(self.path.value).expanduser()
 
-    def load(self, path: str | os.PathLike | None = None) -> None:
-        """Load a TOML configuration (the Load button: from the path box)."""
-        path = self._path(path)
-        try:
-            config = load_config(path)
-        except ConfigError as err:
-            self.message.value = _error_html(str(err))
-            return
+    def _hide_overwrite(self) -> None:
+        self._overwrite = None
+        self.overwrite_button.layout.display = "none"
+
+    def _show(self, config: Config, message: str) -> None:
+        """Put ``config`` into every field and make it the configuration."""
         self._quiet = True
         try:
             for dotted, field in self.fields.items():
@@ -372,17 +627,83 @@ class Explorer:
         self._stale = set()
         self._set_error(None)
         self._update_previews()
-        self.message.value = f"loaded {html.escape(str(path))}"
+        self.message.value = message
 
-    def save(self, path: str | os.PathLike | None = None) -> None:
-        """Write the configuration as commented TOML (the Save button: to the path box)."""
+    def load(self, path: str | os.PathLike | None = None) -> None:
+        """Load a TOML configuration (the Load button: from the path box)."""
+        path = self._path(path)
+        try:
+            config = load_config(path)
+        except ConfigError as err:
+            self.message.value = _error_html(str(err))
+            return
+        self._show(config, f"loaded {html.escape(str(path))}")
+
+    def reset(self) -> None:
+        """Every field back to the built-in defaults (the Reset button); the sweep and plots too."""
+        self.sweep.value, self.method.value, self.seed.value = "distance", "mc", 0
+        for name, box in self.plot_checkboxes.items():
+            box.value = name in DEFAULT_PLOTS
+        self._show(Config(), "reset to the defaults")
+
+    def save(self, path: str | os.PathLike | None = None, overwrite: bool = False) -> None:
+        """Write the configuration as commented TOML (the Save button: to the path box). An existing
+        file is only replaced with ``overwrite`` (the Overwrite button, which the first Save shows)."""
         path = self._path(path)
         if self.error is not None:
             self.message.value = _error_html(f"not saved: fix the invalid value first ({self.error})")
             return
+        if path.exists() and not (overwrite and self._overwrite == path):
+            self._overwrite = path
+            self.overwrite_button.layout.display = None
+            self.message.value = _error_html(f"{path} exists: press Overwrite to replace it, or change the file name")
+            return
+        self._hide_overwrite()
         try:
             path.write_text(self.config.to_toml(), encoding="utf-8")
         except OSError as err:
             self.message.value = _error_html(f"cannot write {path}: {err.strerror or err}")
             return
         self.message.value = f"saved {html.escape(str(path))}"
+
+    def _folder(self) -> Path:
+        return self._path(None).parent
+
+    def save_figures(self) -> list[Path]:
+        """The last run's plots as PNGs (``<plot>.png``) in the TOML file's folder; returns the paths."""
+        if self.run is None or not self.figures:
+            self.message.value = _error_html("no plots yet: Calculate first")
+            return []
+        folder, written = self._folder(), []
+        try:
+            for name, fig in self.figures.items():
+                written.append(folder / f"{self.run.sweep.variable}_{name}.png")
+                fig.savefig(written[-1], dpi=150)
+        except OSError as err:
+            self.message.value = _error_html(f"cannot write {written[-1]}: {err.strerror or err}")
+            return written[:-1]
+        self.message.value = f"saved {len(written)} figures into {html.escape(str(folder))}"
+        return written
+
+    def write_report(self) -> Path | None:
+        """The last run's tofjax-sweep CSV and HTML report (plots, headline numbers) in
+        ``report_<sweep>/`` beside the TOML file, as ``tofjax simulate --report`` writes them."""
+        if self.run is None:
+            self.message.value = _error_html("no run yet: Calculate first")
+            return None
+        from .report import write_report
+        from .sweepfile import write_sweep
+
+        run = self.run
+        folder = self._folder() / f"report_{run.sweep.variable}"
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            metadata, columns = sweep_file_contents(run, "(the explorer)")
+            write_sweep(folder / "sweep.csv", metadata, columns)
+            path = write_report(folder, run.config, run.result, run.elapsed_s, folder / "sweep.csv",
+                                multifrequency=run.multifrequency)
+        except OSError as err:
+            self.message.value = _error_html(f"cannot write into {folder}: {err.strerror or err}")
+            return None
+        self.message.value = f"wrote {html.escape(str(path))} and sweep.csv"
+        return path

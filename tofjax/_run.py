@@ -8,9 +8,11 @@ or analytic (:func:`predict`). Results come back on the host, with the wall time
 from __future__ import annotations
 
 import dataclasses
+import json
 import time
 
 import jax
+import numpy as np
 
 from ._config import Config
 from ._analytic import predict
@@ -36,6 +38,7 @@ class Run:
     result: Result
     multifrequency: MultiFrequencyResult | None
     elapsed_s: float
+    fixed_pattern: bool = False
 
 
 def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int | None = None, seed: int = 0,
@@ -74,4 +77,48 @@ def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int 
     else:
         result = predict(params, sweep)
     result = jax.device_get(result)
-    return Run(config, sweep, method, iterations, seed, result, multi, time.perf_counter() - t0)
+    return Run(config, sweep, method, iterations, seed, result, multi, time.perf_counter() - t0, fixed_pattern)
+
+
+def multifrequency_columns(mf: MultiFrequencyResult) -> dict:
+    """Sweep-file columns of a multi-frequency run: combined depth statistics, the first frequency's
+    amplitude, the wrong-unwrap fraction and each frequency's own depth noise."""
+    primary = mf.per_frequency
+    cols = {
+        "distance_m": primary.distance_m[0], "integration_time_s": primary.integration_time_s[0],
+        "illuminance_lx": primary.illuminance_lx[0], "n_frames": np.full(primary.distance_m.shape[1],
+                                                                         float(primary.n_frames)),
+        "depth_mean_m": mf.depth_mean_m, "depth_std_m": mf.depth_std_m,
+        "amplitude_mean_lsb": primary.amplitude_mean_lsb[0], "amplitude_std_lsb": primary.amplitude_std_lsb[0],
+        "valid_fraction": mf.valid_fraction, "wrong_unwrap_fraction": mf.wrong_unwrap_fraction,
+    }
+    for i in range(primary.depth_std_m.shape[0]):
+        cols[f"depth_std_m_f{i + 1}"] = primary.depth_std_m[i]
+    return {k: np.asarray(v, dtype=float) for k, v in cols.items()}
+
+
+def sweep_file_contents(run: Run, config_file: str = "(built-in defaults)") -> tuple[dict, dict]:
+    """The tofjax-sweep file of a run (:func:`tofjax.sweepfile.write_sweep`'s metadata and columns):
+    what ``tofjax simulate --out`` and the explorer's report write."""
+    from . import __version__
+    from .sweepfile import columns_from_result, utc_now
+
+    config, params, multi = run.config, run.config.params, run.multifrequency
+    mc = run.method == "mc"
+    metadata = {
+        "sweep": run.sweep.variable, "source": "simulation", "method": run.method,
+        "modulation_frequency_hz": repr(float(params.illumination_waveform.modulation_frequency_hz)),
+        "n_phases": params.pixel.n_phases, "created_utc": utc_now(), "software": f"tofjax {__version__}",
+        "seed": run.seed if mc else "", "iterations": run.iterations if mc else 0,
+        "fixed_pattern": str(bool(run.fixed_pattern)).lower(), "config_file": config_file,
+        "config_json": json.dumps(config.values, separators=(",", ":")),
+    }
+    if config.phase_images_per_integration_time != 1:  # the file's times are the model's, per phase image
+        metadata["integration_time_note"] = (f"integration_time_s is per phase image: the configuration's times "
+                                             f"({config.values['scene']['integration_time_per']}) / "
+                                             f"{config.phase_images_per_integration_time}")
+    if multi is not None:
+        metadata["modulation_frequencies_hz"] = ",".join(repr(float(f)) for f in config.modulation_frequencies_hz)
+        metadata["extended_range_m"] = repr(float(multi.extended_range_m))
+        metadata["frequency_fusion"] = multi.fusion
+    return metadata, multifrequency_columns(multi) if multi is not None else columns_from_result(run.result)

@@ -242,25 +242,6 @@ def _summary(result, elapsed_s: float, out: Path) -> str:
     return "\n".join(lines)
 
 
-def _multifrequency_columns(mf) -> dict:
-    """Sweep-file columns of a multi-frequency run: combined depth statistics, the first frequency's
-    amplitude, the wrong-unwrap fraction and each frequency's own depth noise."""
-    import numpy as np
-
-    primary = mf.per_frequency
-    cols = {
-        "distance_m": primary.distance_m[0], "integration_time_s": primary.integration_time_s[0],
-        "illuminance_lx": primary.illuminance_lx[0], "n_frames": np.full(primary.distance_m.shape[1],
-                                                                         float(primary.n_frames)),
-        "depth_mean_m": mf.depth_mean_m, "depth_std_m": mf.depth_std_m,
-        "amplitude_mean_lsb": primary.amplitude_mean_lsb[0], "amplitude_std_lsb": primary.amplitude_std_lsb[0],
-        "valid_fraction": mf.valid_fraction, "wrong_unwrap_fraction": mf.wrong_unwrap_fraction,
-    }
-    for i in range(primary.depth_std_m.shape[0]):
-        cols[f"depth_std_m_f{i + 1}"] = primary.depth_std_m[i]
-    return {k: np.asarray(v, dtype=float) for k, v in cols.items()}
-
-
 def _check_sweep_range(args) -> None:
     """``--from`` / ``--to`` against the swept quantity's range, naming the option (before any work)."""
     from ._schema import KEY_BY_DOTTED, in_range
@@ -276,14 +257,12 @@ def _check_sweep_range(args) -> None:
 
 
 def _simulate(args) -> int:
-    import json
-
     import numpy as np
 
     from ._config import Config, load_config
-    from ._run import run_sweep
+    from ._run import run_sweep, sweep_file_contents
     from .progress import Progress, reporting
-    from .sweepfile import columns_from_result, utc_now, write_sweep
+    from .sweepfile import write_sweep
 
     if args.out is None and args.report is None:
         raise _UsageError("give --out FILE.csv, --report DIR, or both")
@@ -315,25 +294,9 @@ def _simulate(args) -> int:
         run = run_sweep(config, sweep, args.method, iterations, args.seed, args.fixed_pattern,
                         keep_frames=200 if args.report is not None else 0, progress=not args.quiet)
     result, multi, elapsed = run.result, run.multifrequency, run.elapsed_s
-    metadata = {
-        "sweep": args.sweep, "source": "simulation", "method": args.method,
-        "modulation_frequency_hz": repr(float(params.illumination_waveform.modulation_frequency_hz)),
-        "n_phases": params.pixel.n_phases, "created_utc": utc_now(), "software": f"tofjax {__version__}",
-        "seed": args.seed if args.method == "mc" else "", "iterations": iterations if args.method == "mc" else 0,
-        "fixed_pattern": str(bool(args.fixed_pattern)).lower(),
-        "config_file": str(args.config) if args.config else "(built-in defaults)",
-        "config_json": json.dumps(config.values, separators=(",", ":")),
-    }
-    if config.phase_images_per_integration_time != 1:  # the file's times are the model's, per phase image
-        metadata["integration_time_note"] = (f"integration_time_s is per phase image: the configuration's times "
-                                             f"({config.values['scene']['integration_time_per']}) / "
-                                             f"{config.phase_images_per_integration_time}")
-    if multi is not None:
-        metadata["modulation_frequencies_hz"] = ",".join(repr(float(f)) for f in freqs)
-        metadata["extended_range_m"] = repr(float(multi.extended_range_m))
-        metadata["frequency_fusion"] = multi.fusion
+    metadata, columns = sweep_file_contents(run, str(args.config) if args.config else "(built-in defaults)")
     try:
-        write_sweep(out, metadata, _multifrequency_columns(multi) if multi is not None else columns_from_result(result))
+        write_sweep(out, metadata, columns)
     except OSError as err:
         raise _UsageError(f"cannot write {out}: {err.strerror or err}") from None
     print(_summary(result, elapsed, out))

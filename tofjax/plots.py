@@ -12,6 +12,7 @@ import io
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import NullFormatter
 
 _AXES = {"distance": ("distance [m]", 1.0), "illuminance": ("background illuminance [lx]", 1.0),
          "integration_time": ("integration time [ms]", 1e3)}
@@ -37,21 +38,24 @@ def _x(result):
 
 
 def waveforms(params, ax=None) -> Figure:
-    """Illumination and reference waveforms over one period (Fig 4.2), in optical power units."""
+    """Illumination and reference waveforms over one period (Fig 4.2), in optical power units, on a
+    time axis in nanoseconds at the configured modulation frequency."""
     from ._waveforms import waveform
 
     fig, ax = _axes(ax)
     t = np.linspace(-0.5, 0.5, 2001)
+    period_ns = 1e9 / float(params.illumination_waveform.modulation_frequency_hz)
     peak = float(params.illumination.peak_power_w)
-    ax.plot(t, peak * np.asarray(waveform(params.illumination_waveform, t)),
+    ax.plot(t * period_ns, peak * np.asarray(waveform(params.illumination_waveform, t)),
             label=f"illumination ({params.illumination_waveform.shape}, "
                   f"{100 * float(params.illumination_waveform.duty_cycle):g} %)")
-    ax.plot(t, peak * np.asarray(waveform(params.reference_waveform, t)), "--",
+    ax.plot(t * period_ns, peak * np.asarray(waveform(params.reference_waveform, t)), "--",
             label=f"reference ({params.reference_waveform.shape}, {100 * float(params.reference_waveform.duty_cycle):g} %)"
                   " [x peak power]")
-    ax.set_xlabel("time [periods]")
+    ax.set_xlabel(f"time [ns] (one period: {period_ns:.4g} ns at "
+                  f"{float(params.illumination_waveform.modulation_frequency_hz) / 1e6:.4g} MHz)")
     ax.set_ylabel("optical power [W]")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=9)
     ax.grid(alpha=0.3)
     return fig
 
@@ -141,7 +145,11 @@ def photon_transfer_curve(result, ax=None) -> Figure:
             ax.loglog(x[order], y, style, label=name)
     ax.set_xlabel("photo-electrons per phase image (signal + background)")
     ax.set_ylabel("electrons")
-    ax.legend(fontsize=8)
+    # Beside the axes, not over the curves; no labels on minor ticks (over less than a decade,
+    # matplotlib labels them and they overlap).
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_minor_formatter(NullFormatter())
     ax.grid(alpha=0.3, which="both")
     return fig
 
