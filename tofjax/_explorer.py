@@ -27,6 +27,7 @@ import copy
 import html
 import logging
 import os
+import re
 import threading
 from pathlib import Path
 from typing import Any
@@ -90,7 +91,10 @@ def _error_html(text: str) -> str:
 
 
 def _shown(value: Any) -> Any:
-    """A float as the field shows it: 12 significant digits (0.00301, not 0.0030099999999999997)."""
+    """A value as the field shows it: floats (also in lists) at 12 significant digits (0.00301, not
+    0.0030099999999999997); anything else as it is."""
+    if isinstance(value, list | tuple):
+        return [_shown(v) for v in value]
     if isinstance(value, float) and np.isfinite(value):
         return float(f"{value:.12g}")
     return value
@@ -132,7 +136,7 @@ class _Field:
 
     def __init__(self, key: Key, value: Any, on_change):
         self.key = key
-        value = _shown(value) if key.kind != "pair" else [_shown(v) for v in value]
+        value = _shown(value)
         common = dict(description=key.name, style=_DESCRIPTION, tooltip=key.doc)
         self.mode = None
         if key.kind == "float":
@@ -204,13 +208,13 @@ class _Field:
         if self.key.kind == "choice_list":
             self.inputs[0].value = ", ".join(value)
         elif self.key.kind == "float_list":
-            self.inputs[0].value = ", ".join(repr(v) for v in value)
+            self.inputs[0].value = ", ".join(repr(v) for v in _shown(value))
         elif self.key.kind == "pair":
-            self.inputs[0].value, self.inputs[1].value = (_shown(v) for v in value)
+            self.inputs[0].value, self.inputs[1].value = _shown(value)
         elif self.key.kind == "angle":
             diagonal = np.ndim(value) == 0
             self.mode.value = "diagonal" if diagonal else "hv"
-            self.inputs[1].value, self.inputs[2].value = (_shown(v) for v in ((value, value) if diagonal else value))
+            self.inputs[1].value, self.inputs[2].value = _shown([value, value] if diagonal else value)
             self._show_second()
         else:
             self.inputs[0].value = _shown(value)
@@ -403,14 +407,8 @@ class Explorer:
 
     @staticmethod
     def _names(text: str, dotted: str) -> bool:
-        i = text.find(dotted)
-        while i >= 0:
-            end = i + len(dotted)
-            if (i == 0 or not (text[i - 1].isalnum() or text[i - 1] in "._")) and \
-                    (end == len(text) or not (text[end].isalnum() or text[end] == "_")):
-                return True
-            i = text.find(dotted, i + 1)
-        return False
+        """Whether ``text`` names the key ``dotted`` (whole: not ``pixel.v_reset_v_x`` or ``a.pixel...``)."""
+        return re.search(rf"(?<![\w.]){re.escape(dotted)}(?!\w)", text) is not None
 
     def _controls(self) -> None:
         """Buttons and lamp from the state: Calculate only when idle and valid; Cancel only when busy."""
