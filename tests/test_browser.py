@@ -1,7 +1,8 @@
 """The explorer in a real browser: Voila serves a notebook that shows ``tofjax.explorer()`` on
 127.0.0.1, and Playwright drives Debian's Chromium (headless) through what a user does: change a
-value and see the preview redraw, enter an invalid value and see the message at the field, run
-Calculate and see the plots, cancel a long run, save and load a TOML file. Screenshots of each step
+value and see the preview redraw, enter an invalid value and see the message at the field (outlined
+red), run Calculate and see the plots, zoom into one and export its curves, cancel a long run, save
+and load a TOML file. Screenshots of each step
 are kept in ``test-artifacts/browser/`` (or ``$TOFJAX_TEST_ARTIFACTS/browser``).
 
 Needs playwright, voila and a Chromium (``$TOFJAX_CHROMIUM``, else /usr/bin/chromium); without them
@@ -124,6 +125,8 @@ def test_the_explorer_in_a_browser(voila):
             page.get_by_role("tab", name="Pixel").click()
             preview = page.locator(".tofjax-waveform-preview")
             expect(preview).to_be_visible()
+            page.wait_for_function("() => document.querySelector('.tofjax-waveform-preview').naturalWidth > 0")
+            expect(page.locator(".tofjax-correlation-preview")).to_be_visible()
             before = preview.get_attribute("src")
             _enter(page, "illumination_waveform.duty_cycle", "0.3")
             expect(preview).not_to_have_attribute("src", before)
@@ -134,6 +137,8 @@ def test_the_explorer_in_a_browser(voila):
             field = _field(page, "pixel.v_saturated_v")
             expect(field).to_contain_text("must be less than pixel.v_reset_v")
             expect(field).to_have_class(re.compile("tofjax-invalid"))
+            outline = field.evaluate("e => getComputedStyle(e).borderTopColor")
+            assert outline == "rgb(204, 0, 0)", outline  # outlined red
             page.screenshot(path=shots / "3_invalid_value.png")
             _enter(page, "pixel.v_saturated_v", "2.0")
             expect(field).not_to_contain_text("must be less than")
@@ -144,9 +149,33 @@ def test_the_explorer_in_a_browser(voila):
             _enter(page, "scene.samples", "10")
             _enter(page, "pixel.iterations", "100")
             calculate.click()
-            expect(page.locator(".tofjax-plots img")).to_have_count(3, timeout=120_000)
+            plot = page.locator(".tofjax-plots .tofjax-plot")
+            expect(plot).to_have_count(3, timeout=120_000)
             expect(page.locator(".tofjax-summary")).to_contain_text("10 samples")
             page.screenshot(path=shots / "4_calculated.png", full_page=True)
+
+            # The plots zoom (ipympl's toolbar): a rectangle dragged on the first one redraws it.
+            first = plot.first
+            first.scroll_into_view_if_needed()
+            canvas = first.locator("canvas").last
+            expect(canvas).to_be_visible()
+            page.wait_for_timeout(500)  # the first image has arrived
+            before = canvas.screenshot()
+            canvas.hover()  # the toolbar fades in
+            first.get_by_title(re.compile("Zoom to rectangle")).click()
+            box = canvas.bounding_box()
+            page.mouse.move(box["x"] + 0.3 * box["width"], box["y"] + 0.3 * box["height"])
+            page.mouse.down()
+            page.mouse.move(box["x"] + 0.5 * box["width"], box["y"] + 0.5 * box["height"], steps=5)
+            page.mouse.up()
+            page.wait_for_timeout(1000)
+            assert canvas.screenshot() != before, "zooming did not redraw the plot"
+            page.screenshot(path=shots / "4b_zoomed.png")
+
+            # Each plot exports its curves (into the kernel's folder: the TOML file's).
+            page.locator(".tofjax-plots").get_by_role("button", name=re.compile("Export CSV")).nth(2).click()
+            expect(page.locator(".tofjax-message")).to_contain_text("distance_depth_noise.csv")
+            assert (folder / "distance_depth_noise.csv").read_text().startswith("panel,curve,x_label,x,y_label,y")
 
             # A long run, cancelled: Calculate is disabled while it goes, the message says cancelled.
             _enter(page, "scene.samples", "1000")

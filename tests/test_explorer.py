@@ -1,6 +1,7 @@
 """The explorer (thesis §4.3 GUI) driven headlessly: set widget values, press its buttons, read
 the configuration, previews, messages and figures."""
 
+import csv
 import html
 import math
 
@@ -49,7 +50,10 @@ def test_every_key_sits_in_exactly_one_tab_with_its_unit_and_range():
     assert tab_of["adc.resolution_bits"] == "Physical & ADC"
     for key in KEYS:
         note = ex.fields[key.dotted].note.value
-        assert f"[{html.escape(key.unit)}]" in note and html.escape(key.range_text()) in note
+        assert f"[{html.escape(key.unit)}]" in note
+        # The bounds (short for the kinds whose input shows its form: a dropdown lists its choices).
+        bounds = key.range_text().rsplit("each ", 1)[-1]
+        assert (html.escape(bounds) in note) != (key.kind == "choice"), (key.dotted, note)
     constants = next(x.value for x in _descendants(ex.tabs.children[3])
                      if isinstance(getattr(x, "value", None), str) and "Physical constants" in x.value)
     assert "299792458" in constants and "1.380649e-23" in constants
@@ -62,9 +66,21 @@ def test_a_change_updates_the_configuration_and_the_previews():
     png_before = ex.waveform_image.value
     _set(ex, "illumination.peak_power_w", 2.4)
     assert ex.config.values["illumination"]["peak_power_w"] == 2.4 and ex.error is None
+    # Drawn when its tab is shown (the Main tab is): not for every edit on another tab.
+    assert ex.waveform_image.value == png_before
+    ex.tabs.selected_index = ex.tabs.titles.index("Pixel")
+    assert ex.waveform_image.value != png_before
     peak_after = float(np.max(ex.preview["waveforms"].axes[0].lines[0].get_ydata()))
     assert peak_after == pytest.approx(2 * peak_before, rel=1e-12)
-    assert ex.waveform_image.value != png_before
+    ex.tabs.selected_index = 0
+    # The correlation preview follows the phase count and the nominal distance (not the peak power).
+    correlation = ex.preview["correlation"]
+    _set(ex, "pixel.n_phases", 3)
+    assert [line.get_label()[:3] for line in ex.preview["correlation"].axes[0].lines] == ["a_0", "a_1", "a_2", "nom"]
+    _set(ex, "scene.distance_m", 1.5)
+    marker = ex.preview["correlation"].axes[0].lines[-1].get_xdata()[0]
+    assert marker == pytest.approx(2 * 1.5 / 299792458 * 1e9, rel=1e-12) and correlation is not ex.preview["correlation"]
+    _set(ex, "scene.distance_m", 1.0)
 
     # FoV: diagonal -> circular spot pi (d tan(fov/2))^2; h x v -> rectangle 4 d^2 tan tan (§3.1.1).
     _set(ex, "illumination.fov_deg", 60.0, index=1)
@@ -192,8 +208,11 @@ def test_calculate_runs_the_sweep_with_busy_lamp_time_and_the_ticked_plots():
     assert list(ex.figures) == [n for n in plots.PLOTS if n in ("photon_transfer_curve", "snr", "amplitude",
                                                                   "depth_noise")]
     assert len(ex.plots_box.children) == len(ex.figures)
-    for image, fig in zip(ex.plots_box.children, ex.figures.values(), strict=True):  # titled, at their own size
-        assert fig.get_suptitle() and image.layout.width == f"{round(fig.get_figwidth() * 96)}px"
+    for cell, fig in zip(ex.plots_box.children, ex.figures.values(), strict=True):  # titled, at their own size
+        view = cell.children[0]  # zoomable where ipympl is installed (the test extra has it)
+        assert type(view).__name__ == "Canvas" and view.figure is fig and fig.dpi == 96
+        assert fig.get_suptitle() and view.layout.width == f"{round(fig.get_figwidth() * 96) + 4}px"
+        assert [b.description for b in cell.children[1].children] == ["Save PNG", "Export CSV"]
     assert ex.time_label.value.startswith("simulation time ") and "12 samples" in ex.summary.value
     assert "at the nominal point" in ex.summary.value and ex.headlines["nominal_depth_std_m"] > 0
     assert not ex.calculate_button.disabled and ex.message.value == "" and not ex.stale
@@ -203,9 +222,17 @@ def test_calculate_runs_the_sweep_with_busy_lamp_time_and_the_ticked_plots():
     ex.plot_checkboxes["wiggling"].value = True
     ex.calculate()
     assert ex.run.result.method == "analytic" and "wiggling" in ex.figures
+    # Another sweep variable before: nothing to overlay.
+    assert not any(line.get_gid() == plots.OVERLAY_GID for fig in ex.figures.values() for line in fig.axes[0].lines)
     # Several frequencies, analytically: the fused noise (no wrong-unwrap fraction).
     _set(ex, "illumination_waveform.extra_modulation_frequencies_hz", "60.24e6")
+    previous = ex.run
     ex.calculate()
+    # The same sweep: the previous run's curves grey behind the new ones.
+    fig = ex.figures["depth_noise"]
+    grey = [line for line in fig.axes[0].lines if line.get_gid() == plots.OVERLAY_GID]
+    np.testing.assert_array_equal(grey[0].get_ydata(), 1e3 * np.asarray(previous.result.depth_std_m))
+    assert fig.get_suptitle().endswith("grey: previous run")
     assert ex.message.value == "" and ex.run.multifrequency.fusion == "inverse_variance"
     assert np.all(np.isnan(ex.run.multifrequency.wrong_unwrap_fraction))
     # The summary's range is the plots' range: the extended one (the first frequency's named as such).
@@ -213,8 +240,10 @@ def test_calculate_runs_the_sweep_with_busy_lamp_time_and_the_ticked_plots():
     assert f"extended range {extended:.4g} m" in ex.summary.value
     assert f"extended range {extended:.4g} m" in ex.derived.value
     ex.method.value = "mc"
+    ex.overlay.value = False
     ex.calculate()
     assert "multifrequency_distance" in ex.figures and ex.run.multifrequency is not None
+    assert not any(line.get_gid() == plots.OVERLAY_GID for fig in ex.figures.values() for line in fig.axes[0].lines)
     ex.seed.value = -1
     ex.calculate()
     assert "seed = -1 is out of range" in ex.message.value
@@ -290,6 +319,15 @@ def test_a_run_can_be_cancelled_and_changed_settings_mark_it_stale(tmp_path):
     assert [p.name for p in written] == [f"distance_{n}.png" for n in ex.figures] and all(p.exists() for p in written)
     report = ex.write_report()
     assert report.exists() and tj.sweepfile.read_sweep(report.parent / "sweep.csv").n_rows == 12
+    # One plot's PNG and its curves as CSV (its buttons): the run's numbers, not the figure's pixels.
+    cell = ex.plots_box.children[list(ex.figures).index("depth_noise")]
+    cell.children[1].children[1].click()
+    rows = list(csv.DictReader((tmp_path / "distance_depth_noise.csv").read_text().splitlines()))
+    np.testing.assert_allclose([float(r["x"]) for r in rows], np.asarray(first.result.distance_m), rtol=1e-15)
+    np.testing.assert_allclose([float(r["y"]) for r in rows], 1e3 * np.asarray(first.result.depth_std_m), rtol=1e-15)
+    assert "distance_depth_noise.csv" in ex.message.value
+    assert ex.save_figure("amplitude") == tmp_path / "distance_amplitude.png" and (tmp_path / "distance_amplitude.png").exists()
+    assert ex.export_csv("snr") is None and "no plot 'snr'" in html.unescape(ex.message.value)
 
     # Save asks before it overwrites; Reset brings every field back to the defaults.
     ex.save()

@@ -91,3 +91,49 @@ def test_photon_transfer_curve_draws_every_source_of_the_budget(runs):
             np.testing.assert_array_equal(np.sort(lines[label]), np.sort(np.asarray(value)))
     for label in ("signal", "total noise", "read noise", "quantisation"):
         assert label in lines
+
+
+@pytest.mark.parametrize("n", [2, 4])
+def test_the_correlation_preview_is_the_triangle_of_a_rectangular_pair(n):
+    """§3.2.2, Eq 3.24: a 50 % pulse pair gives a_j(d) = 1 - 2 |d - theta_j / 2 pi| (periods, wrapped);
+    the series' truncation at 1024 harmonics rounds the corners by ~2e-4. The delay axis is in ns at
+    the configured frequency, the nominal distance sits at its round-trip delay."""
+    from tofjax._waveforms import phase_steps
+
+    p = _ideal(n=n)
+    fig = plots.correlation_function(p)
+    ax = fig.axes[0]
+    period_ns = 1e9 / float(p.illumination_waveform.modulation_frequency_hz)
+    curves = [line for line in ax.get_lines() if line.get_label().startswith("a_")]
+    assert len(curves) == n
+    for line, theta in zip(curves, phase_steps(n), strict=True):
+        t, a = line.get_data()
+        wrapped = np.mod(t / period_ns - theta / (2 * np.pi) + 0.5, 1.0) - 0.5
+        np.testing.assert_allclose(a, 1.0 - 2.0 * np.abs(wrapped), atol=3e-4)
+    marker = next(line for line in ax.get_lines() if line.get_label().startswith("nominal"))
+    delay_ns = 2.0 * float(p.scene.distance_m) / 299792458.0 * 1e9
+    assert marker.get_xdata()[0] == pytest.approx(delay_ns % period_ns, rel=1e-12)
+
+
+def test_figure_csv_holds_the_plotted_curves_and_overlay_draws_the_previous_run():
+    import csv
+    import io
+
+    near = tj.predict(tj.Params(), tj.Sweep.linspace("distance", 0.5, 2.0, 5))
+    far = tj.predict(tj.Params(), tj.Sweep.linspace("distance", 1.0, 4.0, 7))
+    fig = plots.tap_voltages(far, tj.Params())
+    rows = list(csv.DictReader(io.StringIO(plots.figure_csv(fig))))
+    assert {r["curve"] for r in rows} == {"V_A", "V_B"}  # the axhline references are not data
+    got = np.array([float(r["y"]) for r in rows if r["curve"] == "V_B"])
+    np.testing.assert_array_equal(got, np.asarray(far.tap_b_v)[:, 0])
+    assert rows[0]["x_label"] == "distance [m]" and float(rows[1]["x"]) == pytest.approx(1.5, rel=1e-15)
+
+    previous = plots.amplitude(near)
+    fig = plots.amplitude(far)
+    assert plots.overlay(fig, previous) == 1 and fig.get_suptitle() == "grey: previous run"
+    grey = [line for line in fig.axes[0].get_lines() if line.get_gid() == plots.OVERLAY_GID]
+    np.testing.assert_array_equal(grey[0].get_ydata(), np.asarray(near.amplitude_mean_lsb))
+    # An overlay is neither overlaid again nor exported; figures whose axes do not pair are left alone.
+    assert plots.overlay(plots.amplitude(near), fig) == 1
+    assert len(list(csv.DictReader(io.StringIO(plots.figure_csv(fig))))) == 7
+    assert plots.overlay(plots.fov_footprint(tj.Params()), previous) == 0

@@ -3,8 +3,10 @@
 Four tabs as in the thesis: **Main** (background light, the nominal distance, illuminance and
 integration time, sweep with from/to/samples/iterations, method, plot choice, Calculate and Cancel
 with a progress bar, a ready/busy lamp and the simulation time, the messages, TOML load/save/reset,
-the result's headline numbers, its plots, "save figures" and "write report"),
-**Pixel** (pixel, illumination and reference waveforms, with a live waveform preview),
+the result's headline numbers, its plots (zoomable with ipympl, each with "save PNG" and "export
+CSV", the previous run of the same sweep grey behind), "save figures" and "write report"),
+**Pixel** (pixel, illumination and reference waveforms, with live previews of the waveforms and of
+the phase images' correlation functions),
 **Scene & Camera** (illumination unit, scene, camera, with a live FoV preview and the derived lens)
 and **Physical & ADC** (physical constants, read-only, and the ADC).
 
@@ -12,9 +14,10 @@ Every configuration key of the schema has one input with its unit and allowed ra
 Each change re-validates the whole configuration (:func:`tofjax.config_from_dict`): an invalid
 value shows the validation message beside Calculate and at the field (highlighted), disables
 Calculate instead of raising, and the explorer keeps the last valid configuration; the previews
-say that they show it. A run goes in a background thread (the kernel stays responsive): one run at
-a time, its progress per chunk of frames, cancellable between chunks. Plots and summary of a run
-are marked stale as soon as the settings differ from the run's.
+say that they show it. A preview is drawn when its tab is shown (an edit on another tab costs
+nothing). A run goes in a background thread (the kernel stays responsive): one run at a time, its
+progress per chunk of frames, cancellable between chunks. Plots and summary of a run are marked
+stale as soon as the settings differ from the run's.
 
 The logic lives here, not in a notebook, so that the tests can drive it headlessly: set widget
 values, press buttons with ``.click()`` (Calculate's button runs in the background: :meth:`wait`),
@@ -29,6 +32,7 @@ import logging
 import os
 import re
 import threading
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -79,9 +83,10 @@ _BUSY = '<span style="color:#d22">&#9679;</span> busy'
 _INVALID = '<span style="color:#c80">&#9679;</span> invalid settings'
 #: The pixels per inch the plots are drawn at and shown at (no scaling: sharp).
 _PLOT_DPI = 96
-#: Styles the widgets' classes use (the stale run, the highlighted field).
-_STYLE = ("<style>.tofjax-stale{opacity:0.4}.tofjax-invalid input,.tofjax-invalid select"
-          "{outline:2px solid #c00;background:#fff0f0}</style>")
+#: The style of the stale run's class.
+_STYLE = "<style>.tofjax-stale{opacity:0.4}</style>"
+#: The outline of a field whose value is invalid.
+_INVALID_BORDER = "2px solid #cc0000"
 _STALE = ("<b style='color:#c60'>&#9888; stale</b>: the settings changed after this run; the summary and "
           "the plots below are of the previous settings. Calculate to update them.")
 
@@ -98,6 +103,29 @@ def _shown(value: Any) -> Any:
     if isinstance(value, float) and np.isfinite(value):
         return float(f"{value:.12g}")
     return value
+
+
+#: Preview name -> (its tab, its drawing, the sections whose changes redraw it); its image widget is
+#: :data:`_PREVIEW_IMAGES`. The correlation follows the phase count (pixel) and marks the nominal
+#: distance (scene).
+_PREVIEWS = {
+    "waveforms": ("Pixel", plots.waveforms, {"illumination", "illumination_waveform", "reference_waveform"}),
+    "correlation": ("Pixel", plots.correlation_function, {"pixel", "scene", "illumination_waveform", "reference_waveform"}),
+    "fov": ("Scene & Camera", plots.fov_footprint, {"illumination", "scene"}),
+}
+_PREVIEW_IMAGES = {"waveforms": "waveform_image", "correlation": "correlation_image", "fov": "fov_image"}
+
+
+def _range(key: Key) -> str:
+    """The allowed range beside a field, short where the input shows the form (the dropdown its
+    choices, the diagonal / h x v switch the angle's shape): the rows stay narrow enough for the
+    previews beside them."""
+    text = key.range_text()
+    if key.kind == "choice":
+        return "choose from the list"
+    if key.kind in ("angle", "float_list"):
+        return "each " + text.rsplit("each ", 1)[-1] + (", comma-separated" if key.kind == "float_list" else "")
+    return text
 
 
 class _Cancelled(Exception):
@@ -165,7 +193,7 @@ class _Field:
                            w.FloatText(value=second, layout=_narrow())]
             self.mode.observe(lambda _change: self._show_second(), names="value")
             self._show_second()
-        self._range_note = f"<small style='white-space:nowrap'>[{html.escape(key.unit)}] {html.escape(key.range_text())}</small>"
+        self._range_note = f"<small style='white-space:nowrap'>[{html.escape(key.unit)}] {html.escape(_range(key))}</small>"
         self.note = w.HTML(self._range_note, layout=w.Layout(flex="0 0 auto"))
         self.box = w.HBox([*self.inputs, self.note])
         self.box.add_class(f"tofjax-key-{key.section}-{key.name}")  # for a browser test's selectors
@@ -178,13 +206,17 @@ class _Field:
 
     def show_error(self, text: str | None) -> None:
         """The message at the field (highlighted), or its unit and range again (``None``)."""
+        # The outline is the row's layout (ipywidgets' own styling: a <style> rule in an HTML widget
+        # does not reach the inputs in Voila); the class is for selectors.
         if text is None:
             self.note.value = self._range_note
             self.box.remove_class("tofjax-invalid")
+            self.box.layout.border = None
         else:
             self.note.value = (f"<small style='color:#c00;white-space:normal'>&#9888; {html.escape(text)}</small>"
                                f"<br>{self._range_note}")
             self.box.add_class("tofjax-invalid")
+            self.box.layout.border = _INVALID_BORDER
 
     def value(self) -> Any:
         """The value the inputs hold, in configuration form; :class:`ConfigError` if text does not parse."""
@@ -234,7 +266,8 @@ class Explorer:
       ``progress``, ``load_button``, ``save_button``, ``reset_button``, ``path``: the Main tab's
       controls; ``lamp`` and ``time_label`` show ready/busy and the simulation time; ``message``
       (beside Calculate) says what the last action did or why it could not.
-    - ``preview``: the live preview figures (``"waveforms"``, ``"fov"``) and derived numbers.
+    - ``preview``: the live preview figures (``"waveforms"``, ``"correlation"``, ``"fov"``) and
+      derived numbers; a preview is drawn when its tab is shown or ``preview`` is read.
     - ``run``: the last :class:`tofjax._run.Run`; ``figures``: plot name -> Figure of the last run;
       ``headlines``: its headline numbers (:func:`tofjax.report.headlines`); ``busy``: a run is going;
       ``stale``: the settings differ from the last run's.
@@ -254,7 +287,8 @@ class Explorer:
         self.run = None
         self.figures: dict = {}
         self.headlines: dict = {}
-        self.preview: dict = {}
+        self._preview: dict = {}
+        self._dirty: set[str] = set()  # previews to redraw once their tab is shown (or read)
         self.busy = False
         self.stale = False
         self._cancel = threading.Event()
@@ -293,11 +327,14 @@ class Explorer:
         self.report_button = w.Button(description="Write report", icon="file", disabled=True,
                                       tooltip="the run's tofjax-sweep CSV, the report's plots and report.html, "
                                               "into a report_<sweep> folder beside the TOML file")
+        self.overlay = w.Checkbox(value=True, description="overlay the previous run (grey)", indent=False,
+                                  tooltip="draw the previous run's curves of the same sweep grey behind the new ones")
         self.stale_note = w.HTML("")
         self.summary = w.HTML("")
         self.plots_box = w.GridBox([], layout=w.Layout(grid_template_columns="repeat(auto-fill, minmax(620px, 1fr))",
                                                         grid_gap="8px"))
         self.waveform_image = w.Image(format="png")
+        self.correlation_image = w.Image(format="png")
         self.fov_image = w.Image(format="png")
         self.derived = w.HTML("")
         self._tab_notes: list = []
@@ -317,11 +354,13 @@ class Explorer:
 
         for widget, name in ((self.message, "message"), (self.plots_box, "plots"), (self.progress, "progress"),
                              (self.summary, "summary"), (self.stale_note, "stale-note"),
-                             (self.waveform_image, "waveform-preview"), (self.fov_image, "fov-preview")):
+                             (self.waveform_image, "waveform-preview"), (self.fov_image, "fov-preview"),
+                             (self.correlation_image, "correlation-preview")):
             widget.add_class(f"tofjax-{name}")  # for a browser test's selectors
         self.tabs = w.Tab(children=[self._main_tab(), *(self._section_tab(t) for t in _TAB_SECTIONS)],
                           titles=["Main", *_TAB_SECTIONS])
         self.widget = w.VBox([w.HTML(_STYLE + "<b>tofjax</b>: ToF camera performance model"), self.tabs])
+        self.tabs.observe(lambda _c: self._render_shown(), names="selected_index")
         self._sweep_changed()
         self._update_previews()
 
@@ -343,7 +382,7 @@ class Explorer:
             self.message,
             w.HBox([self.path, self.load_button, self.save_button, self.overwrite_button, self.reset_button]),
         ])
-        results = w.HBox([self.figures_button, self.report_button])
+        results = w.HBox([self.figures_button, self.report_button, self.overlay], layout=w.Layout(align_items="center"))
         return w.VBox([w.HBox([settings, choice], layout=w.Layout(flex_flow="row wrap")), actions,
                        self.stale_note, self.summary, results, self.plots_box])
 
@@ -353,7 +392,9 @@ class Explorer:
             keys = [k.dotted for k in keys_of(section) if k.dotted not in _MAIN_KEYS]
             rows += [w.HTML(f"<b>[{section}]</b>"), *self._rows(keys)]
         if title == "Pixel":
-            side = [w.HTML("<b>Illumination and reference waveforms</b>"), self.waveform_image]
+            side = [w.HTML("<b>Illumination and reference waveforms</b>"), self.waveform_image,
+                    w.HTML("<b>Correlation functions</b> of the phase images (§3.2.2, Eq 3.24)"),
+                    self.correlation_image]
         elif title == "Scene & Camera":
             side = [w.HTML("<b>Illumination field of view</b>"), self.fov_image, self.derived]
         else:
@@ -441,18 +482,38 @@ class Explorer:
         """The ticked plots that apply to the selected sweep."""
         return [name for name, box in self.plot_checkboxes.items() if box.value and not box.disabled]
 
+    @property
+    def preview(self) -> dict:
+        """The live preview figures (``"waveforms"``, ``"correlation"``, ``"fov"``) of the current
+        configuration, drawn now where they are behind, and its derived numbers."""
+        self._render(set(_PREVIEWS))
+        return self._preview
+
+    def _render(self, names: set[str]) -> None:
+        """Draw those of ``names`` that are behind the configuration."""
+        params = self.config.params
+        for name in sorted(names & self._dirty):
+            fig = _PREVIEWS[name][1](params)
+            image = getattr(self, _PREVIEW_IMAGES[name])
+            image.value, image.layout = self._png(fig, scale=0.62 if name == "fov" else 0.8)  # beside the fields at 1280 px
+            self._preview[name] = fig
+            self._dirty.discard(name)
+
+    def _render_shown(self) -> None:
+        title = self.tabs.titles[self.tabs.selected_index or 0]
+        self._render({name for name, (tab, _, _) in _PREVIEWS.items() if tab == title})
+
     def _update_previews(self, sections: set[str] | None = None) -> None:
-        """Redraw the previews changes in ``sections`` affect (all when ``None``); derived numbers always."""
+        """Mark the previews changes in ``sections`` affect (all when ``None``) and draw those of the
+        shown tab (the others when their tab is opened: an edit on Main draws nothing hidden);
+        the derived numbers always."""
         params = self.config.params
         distance = float(params.scene.distance_m)
-        if sections is None or sections & {"illumination", "illumination_waveform", "reference_waveform"}:
-            self.preview["waveforms"] = plots.waveforms(params)
-            self.waveform_image.value, self.waveform_image.layout = self._png(self.preview["waveforms"])
-        if sections is None or sections & {"illumination", "scene"}:
-            self.preview["fov"] = plots.fov_footprint(params)
-            self.fov_image.value, self.fov_image.layout = self._png(self.preview["fov"], scale=0.62)
+        self._dirty |= {name for name, (_, _, affected) in _PREVIEWS.items() if sections is None or sections & affected}
+        if hasattr(self, "tabs"):
+            self._render_shown()
         focal = lens(params.camera)
-        p = self.preview
+        p = self._preview
         p.update(spot_area_m2=float(spot_area_m2(params.illumination, distance)),
                  focal_length_m=float(focal.focal_length_m), aperture_diameter_m=float(focal.diameter_m),
                  unambiguity_range_m=float(params.unambiguity_range_m))
@@ -527,9 +588,16 @@ class Explorer:
             with _progress.reporting(_RunProgress(self.progress, self._cancel)):
                 run = run_sweep(config, sweep, method, seed=seed, keep_frames=200, progress=method == "mc")
             figures = self._draw(run, names)
+            previous = self.run
+            if self.overlay.value and previous is not None and previous.sweep.variable == sweep.variable:
+                for name, fig in figures.items():
+                    if name in self.figures:
+                        plots.overlay(fig, self.figures[name])
             from .report import headlines
 
             numbers = headlines(config.params, run.result)
+            cells = [self._plot_cell(name, fig) for name, fig in figures.items()]
+            summary = self._summary(run, numbers)
         except Exception as err:  # noqa: BLE001 - a background run must report, not vanish
             if self._cancel.is_set():
                 self._finish("cancelled: the summary and plots below are still those of the previous run")
@@ -540,14 +608,37 @@ class Explorer:
         finally:
             logger.removeFilter(quiet)
         self.run, self.figures, self.headlines = run, figures, numbers
-        children = []
-        for fig in figures.values():  # at their own size, in a grid; titled (suptitle)
-            png, layout = self._png(fig)
-            children.append(w.Image(value=png, format="png", layout=layout))
-        self.plots_box.children = children
+        self.plots_box.children = cells
         self.time_label.value = f"simulation time {run.elapsed_s:.2f} s"
-        self.summary.value = self._summary(run, numbers)
+        self.summary.value = summary
         self._finish("")
+
+    def _plot_cell(self, name: str, fig):
+        """One plot of the grid at its own size, titled (suptitle): zoomable and pannable (an ipympl
+        canvas with its toolbar) where ipympl is installed, else a PNG; with its save buttons."""
+        try:
+            from ipympl.backend_nbagg import Canvas, FigureManager
+        except ImportError:
+            png, layout = self._png(fig)
+            view = w.Image(value=png, format="png", layout=layout)
+        else:
+            fig.set_dpi(_PLOT_DPI)
+            view = Canvas(fig)
+            with warnings.catch_warnings():  # ipympl 0.9-0.10's Toolbar calls a deprecated traitlets path
+                warnings.simplefilter("ignore", DeprecationWarning)
+                FigureManager(view, 0)  # the toolbar (zoom, pan, home, download)
+            view.header_visible, view.resizable = False, False
+            # The toolbar shows while the pointer is over the plot (it would cover the title or labels).
+            view.toolbar_visible, view.toolbar_position = "fade-in-fade-out", "left"
+            view.layout.width = f"{round(fig.get_figwidth() * _PLOT_DPI) + 4}px"
+        view.add_class("tofjax-plot")
+        save = w.Button(description="Save PNG", icon="image", tooltip=f"this plot as {self._file_stem(name)}.png "
+                                                                        "in the folder of the TOML file")
+        export = w.Button(description="Export CSV", icon="table",
+                          tooltip=f"this plot's curves as {self._file_stem(name)}.csv in the folder of the TOML file")
+        save.on_click(lambda _b: self.save_figure(name))
+        export.on_click(lambda _b: self.export_csv(name))
+        return w.VBox([view, w.HBox([save, export])])
 
     def _finish(self, message: str) -> None:
         self.busy = False
@@ -667,6 +758,31 @@ class Explorer:
     def _folder(self) -> Path:
         return self._path(None).parent
 
+    def _file_stem(self, name: str) -> str:
+        return f"{self.sweep.value if self.run is None else self.run.sweep.variable}_{name}"
+
+    def _write(self, name: str, suffix: str, write) -> Path | None:
+        if name not in self.figures:
+            self.message.value = _error_html(f"no plot {name!r} in the last run: Calculate with it ticked")
+            return None
+        path = self._folder() / f"{self._file_stem(name)}.{suffix}"
+        try:
+            write(path, self.figures[name])
+        except OSError as err:
+            self.message.value = _error_html(f"cannot write {path}: {err.strerror or err}")
+            return None
+        self.message.value = f"saved {html.escape(str(path))}"
+        return path
+
+    def save_figure(self, name: str) -> Path | None:
+        """One plot of the last run as ``<sweep>_<plot>.png`` in the TOML file's folder (its Save PNG button)."""
+        return self._write(name, "png", lambda path, fig: fig.savefig(path, dpi=150))
+
+    def export_csv(self, name: str) -> Path | None:
+        """The curves of one plot of the last run as ``<sweep>_<plot>.csv`` in the TOML file's folder
+        (its Export CSV button; :func:`tofjax.plots.figure_csv`)."""
+        return self._write(name, "csv", lambda path, fig: path.write_text(plots.figure_csv(fig), encoding="utf-8"))
+
     def save_figures(self) -> list[Path]:
         """The last run's plots as PNGs (``<plot>.png``) in the TOML file's folder; returns the paths."""
         if self.run is None or not self.figures:
@@ -675,7 +791,7 @@ class Explorer:
         folder, written = self._folder(), []
         try:
             for name, fig in self.figures.items():
-                written.append(folder / f"{self.run.sweep.variable}_{name}.png")
+                written.append(folder / f"{self._file_stem(name)}.png")
                 fig.savefig(written[-1], dpi=150)
         except OSError as err:
             self.message.value = _error_html(f"cannot write {written[-1]}: {err.strerror or err}")

@@ -8,6 +8,7 @@ nothing here needs a display or pyplot. :data:`PLOTS` lists which plots apply to
 
 from __future__ import annotations
 
+import csv
 import io
 
 import numpy as np
@@ -56,6 +57,38 @@ def waveforms(params, ax=None) -> Figure:
                   f"{float(params.illumination_waveform.modulation_frequency_hz) / 1e6:.4g} MHz)")
     ax.set_ylabel("optical power [W]")
     ax.legend(fontsize=9)
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def correlation_function(params, ax=None) -> Figure:
+    """The correlation functions a_j of the configured waveforms: the fraction of the modulated light
+    tap A collects in phase image j over the reflection delay (one period; thesis §3.2.2, Eq 3.24),
+    with the distance scale on top and the nominal distance marked."""
+    from ._correlation import correlation
+    from ._waveforms import phase_steps
+
+    fig, ax = _axes(ax)
+    frequency_hz = float(params.illumination_waveform.modulation_frequency_hz)
+    period_ns = 1e9 / frequency_hz
+    n = params.pixel.n_phases
+    # The model's series at 4096 + 1 delays over the period, by one inverse FFT (its table's values).
+    table = correlation(params.illumination_waveform, params.reference_waveform, n, points=4096).table
+    a = np.asarray(table[:, :, 0])
+    delay = np.linspace(0.0, 1.0, a.shape[0])  # reflection delay in periods
+    for j, theta in enumerate(np.degrees(phase_steps(n))):
+        ax.plot(delay * period_ns, a[:, j], label=f"a_{j} ({theta:g} deg)")
+    c = float(params.constants.speed_of_light_m_per_s)
+    nominal = (2.0 * float(params.scene.distance_m) * frequency_hz / c) % 1.0
+    ax.axvline(nominal * period_ns, color="k", ls=":", lw=0.8,
+               label=f"nominal distance {float(params.scene.distance_m):g} m")
+    ax.set_xlim(0.0, period_ns)
+    ax.set_xlabel(f"reflection delay [ns] (one period at {frequency_hz / 1e6:.4g} MHz)")
+    ax.set_ylabel("tap-A fraction of the modulated light")
+    metres = c / (2.0 * frequency_hz * period_ns)  # distance per ns of delay
+    top = ax.secondary_xaxis("top", functions=(lambda t: t * metres, lambda m: m / metres))
+    top.set_xlabel("distance [m] (within the unambiguity range)")
+    ax.legend(fontsize=8, loc="lower left")
     ax.grid(alpha=0.3)
     return fig
 
@@ -265,6 +298,55 @@ def multifrequency_distance(result, ax=None) -> Figure:
     twin.set_ylabel("wrong unwraps [% of valid frames]", color="C3")
     ax.grid(alpha=0.3)
     return fig
+
+
+#: The gid of the lines :func:`overlay` adds (so that an overlay is never overlaid again).
+OVERLAY_GID = "tofjax-previous-run"
+
+
+def _data_lines(ax):
+    """The lines of ``ax`` drawn in data coordinates (not axhline/axvline references), not overlays."""
+    return [line for line in ax.get_lines()
+            if line.get_transform() == ax.transData and line.get_gid() != OVERLAY_GID]
+
+
+def overlay(fig: Figure, previous: Figure, label: str = "previous run") -> int:
+    """Draw the data lines of ``previous`` (the same plot of an earlier run) into ``fig``, thin and
+    grey behind the new curves, axes by axes; notes it in the suptitle. Returns the lines drawn (0
+    when the figures' axes do not pair up)."""
+    if len(fig.axes) != len(previous.axes):
+        return 0
+    drawn = 0
+    for ax, old in zip(fig.axes, previous.axes, strict=True):
+        for line in _data_lines(old):
+            x, y = line.get_data()
+            ax.plot(x, y, color="0.6", ls=line.get_linestyle(), marker=line.get_marker(),
+                    ms=line.get_markersize(), lw=max(0.8, 0.8 * line.get_linewidth()), alpha=0.8,
+                    zorder=0.5, gid=OVERLAY_GID, label="_nolegend_")
+            drawn += 1
+    if drawn:
+        title = fig.get_suptitle()
+        fig.suptitle(f"{title}{'; ' if title else ''}grey: {label}", fontsize=10)
+    return drawn
+
+
+def figure_csv(fig: Figure) -> str:
+    """The data of a figure's plotted curves as CSV in long form: one row per point with the panel
+    (axes number and y label), the curve's label, and x and y with their axis labels. Reference
+    lines (axhline/axvline) and overlays are not data and are left out."""
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(["panel", "curve", "x_label", "x", "y_label", "y"])
+    for i, ax in enumerate(fig.axes):
+        panel = f"{i}: {ax.get_ylabel()}" if ax.get_ylabel() else str(i)
+        for k, line in enumerate(_data_lines(ax)):
+            name = line.get_label()
+            if name.startswith("_"):  # unlabelled: the panel's only curve is its y quantity
+                name = ax.get_ylabel() if len(_data_lines(ax)) == 1 else f"curve {k}"
+            x, y = (np.asarray(v, dtype=float) for v in line.get_data())
+            writer.writerows([panel, name, ax.get_xlabel(), repr(float(a)), ax.get_ylabel(), repr(float(b))]
+                             for a, b in zip(x, y, strict=True))
+    return out.getvalue()
 
 
 #: Plot name -> (function, sweeps it applies to, thesis reference); Table 4.9.
