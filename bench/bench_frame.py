@@ -14,8 +14,11 @@ each return, the phasor sum), then the noisy frames (noise, SBI, ADC, demodulati
   the exposure once and 32 frames in one vectorised draw);
 - ``floor``: only the normals each side draws for those 32 frames (tofjax: one Philox normal per
   phase image; NumPy: 4 PCG64 normals per phase image);
-- ``analytic``: the noise image (``predict_frame``), images per second; ``analytic_prepared``: the
-  chain's share of it, after the exposure (``prepare_frame(...).predict()``).
+- ``analytic``: the analytic frame (``predict_frame``: every field, the noise image among them),
+  images per second; ``analytic_prepared``: the chain's share of it, after the exposure
+  (``prepare_frame(...).predict()``);
+- ``noise_image``: only the noise image (``tj.noise_image``: exposure and depth standard deviation,
+  nothing else); ``noise_image_prepared``: after the exposure (``PreparedFrame.noise_image()``).
 
 Targets (issue 13): 224 x 172 >= 100 frames/s and >= 2x NumPy; 640 x 480 >= 25 frames/s; the
 analytic noise image of 224 x 172 >= 1000 images/s.
@@ -113,6 +116,8 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
         "tofjax_prepared": lambda i: ready(prepared.sample(jax.random.key(i + 3), 1).radial_m),
         "tofjax_analytic": lambda i: ready(tj.predict_frame(p, s, returns).depth_std_m),
         "tofjax_analytic_prepared": lambda i: ready(prepared.predict().depth_std_m),
+        "tofjax_noise_image": lambda i: ready(tj.noise_image(p, s, returns)),
+        "tofjax_noise_image_prepared": lambda i: ready(prepared.noise_image()),
         "floor_tofjax_normals": lambda i: ready(floor_jax(jnp.uint32(BATCH * (i + 2)))),
     }
     if with_numpy:
@@ -128,6 +133,8 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
                                           "tofjax_batch": BATCH / t["tofjax_batch"]},
            "analytic_images_per_s": 1 / t["tofjax_analytic"],
            "analytic_prepared_images_per_s": 1 / t["tofjax_analytic_prepared"],
+           "noise_image_per_s": 1 / t["tofjax_noise_image"],
+           "noise_image_prepared_per_s": 1 / t["tofjax_noise_image_prepared"],
            "ratios": {"tofjax_batch/floor_tofjax_normals": t["tofjax_batch"] / t["floor_tofjax_normals"]}}
     if with_numpy:
         out["frames_per_s"].update(numpy_one=1 / t["numpy_one"], numpy_prepared=1 / t["numpy_prepared"],
@@ -159,6 +166,9 @@ def table(r: dict) -> str:
         lines.append(f"{size + ' analytic noise image':<42}{c['analytic_images_per_s']:>9.0f} images/s{'':>14}{'':>10}  "
                      f"{target[1]}")
         lines.append(f"{size + ' analytic, exposure prepared':<42}{c['analytic_prepared_images_per_s']:>9.0f} images/s")
+        lines.append(f"{size + ' noise image only (tj.noise_image)':<42}{c['noise_image_per_s']:>9.0f} images/s{'':>24}  "
+                     f"{target[1]}")
+        lines.append(f"{size + ' noise image only, exposure prepared':<42}{c['noise_image_prepared_per_s']:>9.0f} images/s")
         lines.append(f"{size + ' batch / its normals (floor)':<42}{c['ratios']['tofjax_batch/floor_tofjax_normals']:>15.1f}x"
                      + (f"{c['ratios']['numpy_batch/floor_numpy_normals']:>13.1f}x" if 'numpy_batch/floor_numpy_normals'
                         in c['ratios'] else ""))

@@ -81,6 +81,12 @@ def test_monte_carlo_frames_match_the_analytic_noise_image(params, one_ray):
     np.testing.assert_array_equal(prepared.render(jax.random.key(1), 2, keep_frames=2).frames_radial_m,
                                   mc.frames_radial_m)
     np.testing.assert_allclose(prepared.predict().depth_std_m, an.depth_std_m, rtol=1e-12)
+    # The noise image alone (a program that computes nothing else) is the analytic frame's (to the
+    # last bits: XLA fuses the smaller program differently), also inside a jit of the user's, and
+    # with the exposure (tj.noise_image).
+    np.testing.assert_allclose(prepared.noise_image(), prepared.predict().depth_std_m, rtol=1e-13)
+    np.testing.assert_allclose(jax.jit(lambda f: f.noise_image())(prepared), an.depth_std_m, rtol=1e-12)
+    np.testing.assert_allclose(tj.noise_image(params, one_ray, returns), an.depth_std_m, rtol=1e-12)
     sampled = prepared.sample(jax.random.key(1), 2)
     kept = mc.result.valid.transpose(2, 0, 1)
     np.testing.assert_array_equal(sampled.valid, kept)
