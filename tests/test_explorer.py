@@ -222,6 +222,9 @@ def test_calculate_runs_the_sweep_with_busy_lamp_time_and_the_ticked_plots():
     ex.plot_checkboxes["wiggling"].value = True
     ex.calculate()
     assert ex.run.result.method == "analytic" and "wiggling" in ex.figures
+    # The buttons name this run's files (its sweep, not the previous run's).
+    first_name = list(ex.figures)[0]
+    assert f"distance_{first_name}.png" in ex.plots_box.children[0].children[1].children[0].tooltip
     # Another sweep variable before: nothing to overlay.
     assert not any(line.get_gid() == plots.OVERLAY_GID for fig in ex.figures.values() for line in fig.axes[0].lines)
     # Several frequencies, analytically: the fused noise (no wrong-unwrap fraction).

@@ -105,15 +105,18 @@ def _shown(value: Any) -> Any:
     return value
 
 
-#: Preview name -> (its tab, its drawing, the sections whose changes redraw it); its image widget is
-#: :data:`_PREVIEW_IMAGES`. The correlation follows the phase count (pixel) and marks the nominal
-#: distance (scene).
+#: Preview name -> (its tab, its drawing, the sections whose changes redraw it, its image widget, the
+#: scale it is shown at: the Pixel tab's beside the fields at 1280 px). The correlation follows the
+#: phase count (pixel) and marks the nominal distance (scene).
 _PREVIEWS = {
-    "waveforms": ("Pixel", plots.waveforms, {"illumination", "illumination_waveform", "reference_waveform"}),
-    "correlation": ("Pixel", plots.correlation_function, {"pixel", "scene", "illumination_waveform", "reference_waveform"}),
-    "fov": ("Scene & Camera", plots.fov_footprint, {"illumination", "scene"}),
+    "waveforms": ("Pixel", plots.waveforms, {"illumination", "illumination_waveform", "reference_waveform"},
+                  "waveform_image", 0.8),
+    "correlation": ("Pixel", plots.correlation_function, {"pixel", "scene", "illumination_waveform", "reference_waveform"},
+                    "correlation_image", 0.8),
+    "fov": ("Scene & Camera", plots.fov_footprint, {"illumination", "scene"}, "fov_image", 0.62),
 }
-_PREVIEW_IMAGES = {"waveforms": "waveform_image", "correlation": "correlation_image", "fov": "fov_image"}
+#: The resolution of saved PNGs.
+_SAVE_DPI = 150
 
 
 def _range(key: Key) -> str:
@@ -126,6 +129,15 @@ def _range(key: Key) -> str:
     if key.kind in ("angle", "float_list"):
         return "each " + text.rsplit("each ", 1)[-1] + (", comma-separated" if key.kind == "float_list" else "")
     return text
+
+
+def _file_stem(variable: str, name: str) -> str:
+    """A saved plot's file name without its suffix: the run's sweep variable and the plot."""
+    return f"{variable}_{name}"
+
+
+def _save_png(path: Path, fig) -> None:
+    fig.savefig(path, dpi=_SAVE_DPI)
 
 
 class _Cancelled(Exception):
@@ -493,15 +505,16 @@ class Explorer:
         """Draw those of ``names`` that are behind the configuration."""
         params = self.config.params
         for name in sorted(names & self._dirty):
-            fig = _PREVIEWS[name][1](params)
-            image = getattr(self, _PREVIEW_IMAGES[name])
-            image.value, image.layout = self._png(fig, scale=0.62 if name == "fov" else 0.8)  # beside the fields at 1280 px
+            _, draw, _, image, scale = _PREVIEWS[name]
+            fig = draw(params)
+            image = getattr(self, image)
+            image.value, image.layout = self._png(fig, scale=scale)
             self._preview[name] = fig
             self._dirty.discard(name)
 
     def _render_shown(self) -> None:
         title = self.tabs.titles[self.tabs.selected_index or 0]
-        self._render({name for name, (tab, _, _) in _PREVIEWS.items() if tab == title})
+        self._render({name for name, (tab, *_) in _PREVIEWS.items() if tab == title})
 
     def _update_previews(self, sections: set[str] | None = None) -> None:
         """Mark the previews changes in ``sections`` affect (all when ``None``) and draw those of the
@@ -509,9 +522,8 @@ class Explorer:
         the derived numbers always."""
         params = self.config.params
         distance = float(params.scene.distance_m)
-        self._dirty |= {name for name, (_, _, affected) in _PREVIEWS.items() if sections is None or sections & affected}
-        if hasattr(self, "tabs"):
-            self._render_shown()
+        self._dirty |= {name for name, (_, _, affected, *_) in _PREVIEWS.items() if sections is None or sections & affected}
+        self._render_shown()
         focal = lens(params.camera)
         p = self._preview
         p.update(spot_area_m2=float(spot_area_m2(params.illumination, distance)),
@@ -596,7 +608,7 @@ class Explorer:
             from .report import headlines
 
             numbers = headlines(config.params, run.result)
-            cells = [self._plot_cell(name, fig) for name, fig in figures.items()]
+            cells = [self._plot_cell(name, fig, sweep.variable) for name, fig in figures.items()]
             summary = self._summary(run, numbers)
         except Exception as err:  # noqa: BLE001 - a background run must report, not vanish
             if self._cancel.is_set():
@@ -613,7 +625,7 @@ class Explorer:
         self.summary.value = summary
         self._finish("")
 
-    def _plot_cell(self, name: str, fig):
+    def _plot_cell(self, name: str, fig, variable: str):
         """One plot of the grid at its own size, titled (suptitle): zoomable and pannable (an ipympl
         canvas with its toolbar) where ipympl is installed, else a PNG; with its save buttons."""
         try:
@@ -632,10 +644,10 @@ class Explorer:
             view.toolbar_visible, view.toolbar_position = "fade-in-fade-out", "left"
             view.layout.width = f"{round(fig.get_figwidth() * _PLOT_DPI) + 4}px"
         view.add_class("tofjax-plot")
-        save = w.Button(description="Save PNG", icon="image", tooltip=f"this plot as {self._file_stem(name)}.png "
-                                                                        "in the folder of the TOML file")
+        stem = _file_stem(variable, name)
+        save = w.Button(description="Save PNG", icon="image", tooltip=f"this plot as {stem}.png in the folder of the TOML file")
         export = w.Button(description="Export CSV", icon="table",
-                          tooltip=f"this plot's curves as {self._file_stem(name)}.csv in the folder of the TOML file")
+                          tooltip=f"this plot's curves as {stem}.csv in the folder of the TOML file")
         save.on_click(lambda _b: self.save_figure(name))
         export.on_click(lambda _b: self.export_csv(name))
         return w.VBox([view, w.HBox([save, export])])
@@ -758,14 +770,11 @@ class Explorer:
     def _folder(self) -> Path:
         return self._path(None).parent
 
-    def _file_stem(self, name: str) -> str:
-        return f"{self.sweep.value if self.run is None else self.run.sweep.variable}_{name}"
-
     def _write(self, name: str, suffix: str, write) -> Path | None:
         if name not in self.figures:
             self.message.value = _error_html(f"no plot {name!r} in the last run: Calculate with it ticked")
             return None
-        path = self._folder() / f"{self._file_stem(name)}.{suffix}"
+        path = self._folder() / f"{_file_stem(self.run.sweep.variable, name)}.{suffix}"
         try:
             write(path, self.figures[name])
         except OSError as err:
@@ -776,7 +785,7 @@ class Explorer:
 
     def save_figure(self, name: str) -> Path | None:
         """One plot of the last run as ``<sweep>_<plot>.png`` in the TOML file's folder (its Save PNG button)."""
-        return self._write(name, "png", lambda path, fig: fig.savefig(path, dpi=150))
+        return self._write(name, "png", _save_png)
 
     def export_csv(self, name: str) -> Path | None:
         """The curves of one plot of the last run as ``<sweep>_<plot>.csv`` in the TOML file's folder
@@ -791,8 +800,8 @@ class Explorer:
         folder, written = self._folder(), []
         try:
             for name, fig in self.figures.items():
-                written.append(folder / f"{self._file_stem(name)}.png")
-                fig.savefig(written[-1], dpi=150)
+                written.append(folder / f"{_file_stem(self.run.sweep.variable, name)}.png")
+                _save_png(written[-1], fig)
         except OSError as err:
             self.message.value = _error_html(f"cannot write {written[-1]}: {err.strerror or err}")
             return written[:-1]

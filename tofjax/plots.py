@@ -85,7 +85,7 @@ def correlation_function(params, ax=None) -> Figure:
     ax.set_xlim(0.0, period_ns)
     ax.set_xlabel(f"reflection delay [ns] (one period at {frequency_hz / 1e6:.4g} MHz)")
     ax.set_ylabel("tap-A fraction of the modulated light")
-    metres = c / (2.0 * frequency_hz * period_ns)  # distance per ns of delay
+    metres = 0.5 * c * 1e-9  # distance per ns of round-trip delay
     top = ax.secondary_xaxis("top", functions=(lambda t: t * metres, lambda m: m / metres))
     top.set_xlabel("distance [m] (within the unambiguity range)")
     ax.legend(fontsize=8, loc="lower left")
@@ -339,10 +339,11 @@ def figure_csv(fig: Figure) -> str:
     writer.writerow(["panel", "curve", "x_label", "x", "y_label", "y"])
     for i, ax in enumerate(fig.axes):
         panel = f"{i}: {ax.get_ylabel()}" if ax.get_ylabel() else str(i)
-        for k, line in enumerate(_data_lines(ax)):
+        lines = _data_lines(ax)
+        for k, line in enumerate(lines):
             name = line.get_label()
             if name.startswith("_"):  # unlabelled: the panel's only curve is its y quantity
-                name = ax.get_ylabel() if len(_data_lines(ax)) == 1 else f"curve {k}"
+                name = ax.get_ylabel() if len(lines) == 1 else f"curve {k}"
             x, y = (np.asarray(v, dtype=float) for v in line.get_data())
             writer.writerows([panel, name, ax.get_xlabel(), repr(float(a)), ax.get_ylabel(), repr(float(b))]
                              for a, b in zip(x, y, strict=True))
