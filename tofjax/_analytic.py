@@ -23,7 +23,7 @@ from ._noise import AFTER_LIMIT, BEFORE_LIMIT
 from ._params import Params
 from ._result import CAVEAT_COARSE_QUANTIZATION, CAVEAT_LOW_SNR, CAVEAT_NEAR_LIMIT, Result, snr_db
 from ._smooth import Smooth
-from ._sweep import Sweep, check_inputs
+from ._sweep import Sweep, check_inputs, pad_sweep, unpad
 
 #: Standard deviations within which a limit makes the analytic statistics a caveat.
 _NEAR = 3.0
@@ -162,11 +162,15 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None) -> Re
       with temperatures for a differentiable relaxation.
 
     **Returns:** a :class:`tofjax.Result` with ``method = "analytic"`` and no per-frame fields.
+
+    A 1-D sweep runs padded with copies of its last point (:func:`tofjax._sweep.padded_samples`),
+    so sweeps of similar length share the compiled programs; the padding is cut from the result.
     """
     check_inputs(params, sweep)
-    chain, charges = _predict_exposure(params, sweep, smooth)
-    m = _predict_moments(chain, sweep, charges)
-    return _predict_result(chain, sweep, m)
+    padded = pad_sweep(sweep)  # sweeps of similar length share the compiled programs
+    chain, charges = _predict_exposure(params, padded, smooth)
+    m = _predict_moments(chain, padded, charges)
+    return unpad(_predict_result(chain, padded, m), sweep, padded)
 
 
 # predict runs as three programs, the exposure, the moments and the result: XLA on CPU fuses a

@@ -1,0 +1,56 @@
+"""Sweeps of similar length share one compiled program of tj.predict (tofjax._sweep.padded_samples):
+the padded points change nothing of the sweep's own, and a second length in the same bucket traces
+nothing but the padding."""
+
+import jax
+import numpy as np
+import pytest
+from jax import monitoring
+
+import tofjax as tj
+from tofjax._sweep import padded_samples
+
+# 0.4-3.4 m: past the 1.87 m unambiguity range of 80 MHz, so the unwrapping along the sweep runs.
+DISTANCES = np.linspace(0.4, 3.4, 16)
+
+
+@pytest.mark.parametrize(("n", "padded"), [(1, 16), (16, 16), (17, 32), (100, 128), (1000, 1024), (4096, 4096),
+                                           (4097, 4608), (100_001, 106_496)])
+def test_padded_lengths(n, padded):
+    assert padded_samples(n) == padded
+
+
+def test_padding_bounds():
+    for n in range(1, 40_000, 7):
+        m = padded_samples(n)
+        assert n <= m and m % 16 == 0
+        assert m <= max(16, 2 * n) and (n <= 4096 or m <= 1.125 * n)  # beyond 4096 at most 1/8 more
+
+
+def _traces(fn):
+    """The names of the programs ``fn`` traced (none: it ran programs traced before)."""
+    names = []
+
+    def listen(event, duration, **kwargs):
+        if event == "/jax/core/compile/jaxpr_trace_duration":
+            names.append(kwargs.get("fun_name"))
+
+    monitoring.register_event_duration_secs_listener(listen)
+    try:
+        out = fn()
+    finally:
+        monitoring.unregister_event_duration_listener(listen)
+    return names, out
+
+
+def test_predict_padding_changes_nothing_and_shares_the_program():
+    params = tj.Params()
+    whole = tj.predict(params, tj.Sweep("distance", DISTANCES))  # 16 points: no padding
+    traced, part = _traces(lambda: tj.predict(params, tj.Sweep("distance", DISTANCES[:13])))
+    assert not [name for name in traced if "predict" in name], f"a 13-point sweep ran its own program: {traced}"
+    assert np.all(np.isfinite(np.asarray(whole.depth_unwrapped_mean_m)))
+    assert float(whole.depth_unwrapped_mean_m[-1]) > float(whole.unambiguity_range_m)  # unwrapped
+    for (path, a), b in zip(jax.tree_util.tree_leaves_with_path(part), jax.tree_util.tree_leaves(whole), strict=True):
+        expected = b[:13] if np.ndim(b) else b
+        assert np.shape(a) == np.shape(expected), jax.tree_util.keystr(path)
+        np.testing.assert_array_equal(a, expected, err_msg=jax.tree_util.keystr(path))
