@@ -2,6 +2,7 @@
 the padded points change nothing of the sweep's own, and a second length in the same bucket traces
 nothing but the padding."""
 
+import equinox as eqx
 import jax
 import numpy as np
 import pytest
@@ -54,3 +55,19 @@ def test_predict_padding_changes_nothing_and_shares_the_program():
         expected = b[:13] if np.ndim(b) else b
         assert np.shape(a) == np.shape(expected), jax.tree_util.keystr(path)
         np.testing.assert_array_equal(a, expected, err_msg=jax.tree_util.keystr(path))
+
+
+def test_no_padding_under_a_transformation():
+    """Inside a caller's jit/vmap the sweep runs as it is (the caller's program is compiled for its
+    shapes once anyway; padding would only add points: a vmapped design grid of 2-point sweeps would
+    run 16 points each)."""
+    params = tj.Params()
+    sweep = tj.Sweep("distance", [0.3, 3.0])
+
+    def noise(power):
+        return tj.predict(eqx.tree_at(lambda p: p.illumination.peak_power_w, params, power), sweep).depth_std_m
+
+    program = str(jax.make_jaxpr(jax.vmap(noise))(np.asarray([1.0, 2.0])))
+    assert "_predict" in program and "_pad" not in program and "_cut" not in program
+    out = jax.jit(jax.vmap(noise))(np.asarray([1.0, 2.0]))
+    np.testing.assert_allclose(out[0], noise(1.0), rtol=1e-12)  # noise(1.0) called directly: padded

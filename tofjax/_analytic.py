@@ -12,6 +12,7 @@ numerically; the cost per operating point is a few hundred flops and O(phases) m
 from __future__ import annotations
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array
 
@@ -163,11 +164,14 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None) -> Re
 
     **Returns:** a :class:`tofjax.Result` with ``method = "analytic"`` and no per-frame fields.
 
-    A 1-D sweep runs padded with copies of its last point (:func:`tofjax._sweep.padded_samples`),
-    so sweeps of similar length share the compiled programs; the padding is cut from the result.
+    Called directly, a 1-D sweep runs padded with copies of its last point
+    (:func:`tofjax._sweep.padded_samples`), so sweeps of similar length share the compiled programs;
+    the padding is cut from the result. Under a transformation (``jit``, ``vmap``, ``grad``) the
+    sweep runs as it is: the caller's program is compiled for its shapes once anyway.
     """
     check_inputs(params, sweep)
-    padded = pad_sweep(sweep)  # sweeps of similar length share the compiled programs
+    traced = any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves((params, sweep, smooth)))
+    padded = sweep if traced else pad_sweep(sweep)
     chain, charges = _predict_exposure(params, padded, smooth)
     m = _predict_moments(chain, padded, charges)
     return unpad(_predict_result(chain, padded, m), sweep, padded)

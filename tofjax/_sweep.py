@@ -125,11 +125,11 @@ POW2_PADDED_POINTS = 4096
 
 def padded_samples(n: int) -> int:
     """The number of operating points a 1-D sweep of ``n`` runs as in :func:`tofjax.predict`. Its
-    compiled programs take the sweep's length as static, so every length would compile anew (about
-    1.5 s); padded, sweeps of 1-16 points share one program, of 17-32 the next, and so on (a session
-    sweeping 10, 12 and 13 points compiles once). Up to 4096 points the length is rounded up to a
-    power of two (the analytic path runs 4096 points in milliseconds), beyond to a multiple of 1/16
-    of that power of two (at most 1/8 more points)."""
+    compiled programs take the sweep's length as static, so every length would compile anew (1.5 s
+    at the test suite's XLA settings, more at the default ones); padded, sweeps of 1-16 points share
+    one program, of 17-32 the next, and so on (a session sweeping 10, 12 and 13 points compiles
+    once). Up to 4096 points the length is rounded up to a power of two (the analytic path runs 4096
+    points in milliseconds), beyond to a multiple of 1/16 of that power of two (at most 1/8 more)."""
     if n <= MIN_PADDED_POINTS:
         return MIN_PADDED_POINTS
     p = 1 << (n - 1).bit_length()
