@@ -119,24 +119,21 @@ def check_inputs(params, sweep) -> None:
 
 #: The fewest points a 1-D sweep runs as (:func:`padded_samples`).
 MIN_PADDED_POINTS = 16
-#: Up to this many points a sweep's length is rounded up to a power of two (:func:`padded_samples`).
-POW2_PADDED_POINTS = 4096
+#: Longer sweeps run unpadded (:func:`padded_samples`).
+MAX_PADDED_POINTS = 4096
 
 
 def padded_samples(n: int) -> int:
     """The number of operating points a 1-D sweep of ``n`` runs as in :func:`tofjax.predict`. Its
     compiled programs take the sweep's length as static, so every length would compile anew (1.5 s
-    at the test suite's XLA settings, more at the default ones); padded, sweeps of 1-16 points share
-    one program, of 17-32 the next, and so on (a session sweeping 10, 12 and 13 points compiles
-    once). Up to 4096 points the length is rounded up to a power of two (the analytic path runs 4096
-    points in milliseconds), beyond to a multiple of 1/16 of that power of two (at most 1/8 more)."""
-    if n <= MIN_PADDED_POINTS:
-        return MIN_PADDED_POINTS
-    p = 1 << (n - 1).bit_length()
-    if p <= POW2_PADDED_POINTS:
-        return p
-    step = p // 16
-    return -(-n // step) * step
+    at the test suite's XLA settings, more at the default ones); padded to a power of two of at
+    least 16, sweeps of 1-16 points share one program, of 17-32 the next, and so on (a session
+    sweeping 10, 12 and 13 points compiles once), at a cost of microseconds. Beyond 4096 points a
+    sweep runs as it is: there a long run pays for the padded points at every call, and such runs
+    repeat one length."""
+    if n > MAX_PADDED_POINTS:
+        return n
+    return max(MIN_PADDED_POINTS, 1 << (n - 1).bit_length())
 
 
 def pad_sweep(sweep: Sweep) -> Sweep:
