@@ -80,13 +80,13 @@ def test_sunlight_at_a_short_exposure_is_bounded_flagged_and_right():
 def test_saturated_samples_are_flagged_and_never_zero():
     p = tj.Params(pixel=tj.Pixel(sbi=False))
     sweep = tj.Sweep("distance", np.array([0.2, 0.3, 1.0]))
-    for r in (tj.predict(p, sweep), tj.simulate(p, sweep, jax.random.key(0), 50)):
+    mc = tj.simulate(p, sweep, jax.random.key(0), 50, keep_frames=50)  # statistics of all 50 frames
+    for r in (tj.predict(p, sweep), mc):
         vf = np.asarray(r.valid_fraction)
         assert vf[0] == 0.0 and vf[-1] == 1.0
         assert np.asarray(r.pixel_saturated_fraction)[0] == 1.0
         for field in (r.depth_mean_m, r.depth_std_m, r.amplitude_mean_lsb):
             assert np.isnan(np.asarray(field)[0]) and np.isfinite(np.asarray(field)[-1])
-    mc = tj.simulate(p, sweep, jax.random.key(0), 50, keep_frames=50)
     assert not np.any(np.asarray(mc.valid)[0])
 
 
