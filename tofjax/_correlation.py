@@ -57,6 +57,7 @@ class Correlation(eqx.Module):
     table: Float[Array, "points phases 2"] | None
     error_bound: Float[Array, ""]
 
+    @eqx.filter_jit  # one program per shape when called eagerly (inlined under an outer jit)
     def __call__(self, delay_periods: Float[Array, "*b"]) -> Float[Array, "*b phases"]:
         """a_j at reflected phase 2 pi ``delay_periods`` (any shape)."""
         if self.table is None:
@@ -83,6 +84,7 @@ def correlation_coefficients(illumination: AbstractWaveform, reference: Abstract
     return r * jnp.conj(s) / jnp.real(s[0]).astype(s.dtype)
 
 
+@eqx.filter_jit
 def correlation(illumination: AbstractWaveform, reference: AbstractWaveform, n_phases: int, *,
                 n_harmonics: int = N_HARMONICS, points: int = N_TABLE, tabulate: bool = True) -> Correlation:
     """The correlation of the waveforms for the phase steps of an ``n_phases`` measurement:

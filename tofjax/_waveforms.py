@@ -23,6 +23,7 @@ two smooth numeric shapes.
 
 from __future__ import annotations
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Complex, Float
@@ -87,6 +88,7 @@ def waveform(wave: AbstractWaveform, t: Float[Array, "*t"]) -> Float[Array, "*t"
                      "sawtooth, triangle")
 
 
+@eqx.filter_jit
 def fourier_coefficients(
     wave: AbstractWaveform, n_harmonics: int = N_HARMONICS
 ) -> Complex[Array, " harmonics"]:
