@@ -47,6 +47,7 @@ def max_code(adc: ADC) -> float:
     return 2.0**adc.resolution_bits - 1.0
 
 
+@eqx.filter_jit
 def code_position(adc: ADC, v: Float[Array, "*b"], per_volt: Float[Array, ""] | float = 1.0) -> Float[Array, "*b"]:
     """Continuous code position u (LSB) of a differential voltage ``v``, with offset, gain and INL;
     with ``per_volt`` (units of ``v`` per volt, e.g. C_int / e) of a differential charge. The per-call
@@ -85,6 +86,7 @@ def _edge(adc: ADC, c: Array) -> Array:
     return c - 0.5 + 0.5 * adc.differential_nonlinearity_lsb * _sin_two_pi(_GOLDEN * c)
 
 
+@eqx.filter_jit
 def quantize(adc: ADC, u: Float[Array, "*b"], temperature_lsb: Float[Array, ""] | None = None) -> Float[Array, "*b"]:
     """Code of a code position ``u`` (hard: exact integer; smooth: Gaussian-blurred staircase)."""
     if not adc.enabled:

@@ -30,6 +30,7 @@ import math
 from importlib import resources
 from pathlib import Path
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
@@ -93,6 +94,7 @@ def _table() -> np.ndarray:
     return np.array([[float(x) for x in line.split(",")] for line in lines])
 
 
+@eqx.filter_jit
 def moments(v: Float[Array, "*b"]) -> tuple[Float[Array, "*b"], Float[Array, "*b"]]:
     """(G(v), M(v)) for first-order phase variances ``v`` (module docstring); ``v = inf`` (no
     signal) gives G = pi^2 / 3."""

@@ -55,6 +55,7 @@ def _gauss_extended(u: Array, duty: Array, order: int) -> Array:
     return jnp.sum(jnp.exp(-jnp.log(2.0) * x ** (2 * order)), axis=-1)
 
 
+@eqx.filter_jit
 def waveform(wave: AbstractWaveform, t: Float[Array, "*t"]) -> Float[Array, "*t"]:
     """Evaluate a waveform at times ``t`` (in periods, any shape); peak 1, centred on t = 0.
 
