@@ -137,31 +137,32 @@ def padded_samples(n: int) -> int:
 
 
 def pad_sweep(sweep: Sweep) -> Sweep:
-    """A 1-D ``sweep`` padded to :func:`padded_samples` points with copies of its last point (the
-    points are independent; :func:`tofjax._depth.unwrap_along_sweep` runs from the first point, so
-    a tail changes nothing before it); a sweep of another shape unchanged (no sweep order, and an
-    image's shape is the user's)."""
+    """A 1-D ``sweep`` of concrete values padded to :func:`padded_samples` points with copies of its
+    last point (the points are independent; :func:`tofjax._depth.unwrap_along_sweep` runs from the
+    first point, so a tail changes nothing before it); a sweep of another shape unchanged (no sweep
+    order, and an image's shape is the user's)."""
     extra = padded_samples(sweep.samples) - sweep.samples
-    return sweep if len(sweep.shape) != 1 or extra == 0 else _pad(sweep, extra)
+    if len(sweep.shape) != 1 or extra == 0:
+        return sweep
 
-
-def unpad(tree, sweep: Sweep, padded: Sweep):
-    """``tree``, a result of ``padded`` (:func:`pad_sweep` of ``sweep``), with the padding cut from
-    every array leaf's leading (points) axis; scalars (per call, e.g. the unambiguity range) kept."""
-    return tree if padded is sweep else _cut(tree, sweep.samples)
-
-
-# One small program each (per length), not one per array operation: eagerly, every operation would
-# compile for each new length.
-@eqx.filter_jit
-def _pad(sweep: Sweep, extra: int) -> Sweep:
-    def pad(x):
-        return None if x is None else jnp.concatenate([x, jnp.broadcast_to(x[-1:], (extra,))])
+    def pad(x):  # on the host and put back on its device: an array operation would compile for each new length
+        if x is None:
+            return None
+        host = np.asarray(x)
+        return jax.device_put(np.concatenate([host, np.repeat(host[-1:], extra)]), next(iter(x.devices())))
 
     return Sweep(sweep.variable, pad(sweep.values), pad(sweep.distance_m), pad(sweep.illuminance_lx),
                  pad(sweep.integration_time_s))
 
 
-@eqx.filter_jit
-def _cut(tree, n: int):
-    return jax.tree_util.tree_map(lambda x: x[:n] if jnp.ndim(x) >= 1 else x, tree)
+def unpad(tree, sweep: Sweep, padded: Sweep):
+    """``tree``, a result of ``padded`` (:func:`pad_sweep` of ``sweep``), with the padding cut from
+    every array leaf's leading (points) axis; scalars (per call, e.g. the unambiguity range) kept."""
+    if padded is sweep:
+        return tree
+    n = sweep.samples
+
+    def cut(x):  # sliced on the host and put back on its device: a slice would compile for each new length
+        return jax.device_put(np.asarray(x)[:n], next(iter(x.devices()))) if jnp.ndim(x) >= 1 else x
+
+    return jax.tree_util.tree_map(cut, tree)
