@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jax import lax
@@ -49,6 +50,7 @@ def phase_weights(n_phases: int) -> tuple[np.ndarray, np.ndarray]:
     return np.round(np.cos(theta), 15) + 0.0, np.round(np.sin(theta), 15) + 0.0
 
 
+@eqx.filter_jit
 def demodulate(values: Float[Array, "*b phases"]) -> Complex[Array, "*b"]:
     """Z = sum_j D_j exp(i theta_j) over the last (phase) axis."""
     cos, sin = (w.reshape((1,) * (values.ndim - 1) + (-1,)) for w in phase_weights(values.shape[-1]))
@@ -63,6 +65,7 @@ def phasor(values: Float[Array, "phases *b"]) -> tuple[Float[Array, "*b"], Float
     return re, im
 
 
+@eqx.filter_jit
 def atan2(y: Array, x: Array) -> Array:
     """arctan2(y, x) in (-pi, pi] (0 at the origin), elementwise, by Cephes' rational approximation."""
     ax, ay = jnp.abs(x), jnp.abs(y)
@@ -96,6 +99,7 @@ def _safe_abs(z: Array) -> Array:
     return jnp.where(ok, jnp.abs(jnp.where(ok, z, 1.0)), 0.0)
 
 
+@eqx.filter_jit
 def phase_rad(z: Complex[Array, "*b"]) -> Float[Array, "*b"]:
     """arg Z in [0, 2 pi) (0 where Z = 0, with a zero gradient)."""
     ok = jnp.abs(z) > 0.0
@@ -158,6 +162,7 @@ def delta_method(values: Float[Array, "*b phases"], variances: Float[Array, "*b 
     return phase, var_phase, v, scale * mean, scale**2 * var_amp
 
 
+@eqx.filter_jit
 def circular_stats(
     phase: Float[Array, "*b frames"], valid: Bool[Array, "*b frames"]
 ) -> tuple[Float[Array, "*b"], Float[Array, "*b"], Float[Array, "*b"]]:
@@ -181,6 +186,7 @@ def circular_stats(
     return jnp.where(enough, mean, jnp.nan), jnp.where(enough, std, jnp.nan), n
 
 
+@eqx.filter_jit
 def masked_mean_std(
     x: Float[Array, "*b frames"], valid: Bool[Array, "*b frames"]
 ) -> tuple[Float[Array, "*b"], Float[Array, "*b"]]:

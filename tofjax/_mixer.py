@@ -54,6 +54,7 @@ class TapCharges(eqx.Module):
         return self.dark_a + self.dark_b
 
 
+@eqx.filter_jit
 def split_between_taps(fraction_a: Float[Array, "*b phases"], contrast: Float[Array, ""],
                        active_e: Float[Array, "*b"], background_e: Float[Array, "*b"]):
     """Photo-electrons of taps A and B per phase (Eqs 3.19-3.21): K N_s a_j plus the equally

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -82,6 +83,7 @@ def _horner(coefficients, x: Array) -> Array:
     return p
 
 
+@eqx.filter_jit
 def normal_from_bits(bits: UInt32[Array, "*s"]) -> Float[Array, "*s"]:
     """Standard normal float32 variates, one per 32-bit word (module docstring)."""
     magnitude = (bits & np.uint32(0x7FFFFFFF)).astype(jnp.float32)
