@@ -793,19 +793,18 @@ class Explorer:
         return self._write(name, "csv", lambda path, fig: path.write_text(plots.figure_csv(fig), encoding="utf-8"))
 
     def save_figures(self) -> list[Path]:
-        """The last run's plots as PNGs (``<plot>.png``) in the TOML file's folder; returns the paths."""
+        """The last run's plots as PNGs (``<sweep>_<plot>.png``, as their Save PNG buttons write them) in
+        the TOML file's folder; returns the paths written (up to a failure, which the message names)."""
         if self.run is None or not self.figures:
             self.message.value = _error_html("no plots yet: Calculate first")
             return []
-        folder, written = self._folder(), []
-        try:
-            for name, fig in self.figures.items():
-                written.append(folder / f"{_file_stem(self.run.sweep.variable, name)}.png")
-                _save_png(written[-1], fig)
-        except OSError as err:
-            self.message.value = _error_html(f"cannot write {written[-1]}: {err.strerror or err}")
-            return written[:-1]
-        self.message.value = f"saved {len(written)} figures into {html.escape(str(folder))}"
+        written = []
+        for name in self.figures:
+            path = self.save_figure(name)
+            if path is None:
+                return written
+            written.append(path)
+        self.message.value = f"saved {len(written)} figures into {html.escape(str(self._folder()))}"
         return written
 
     def write_report(self) -> Path | None:
