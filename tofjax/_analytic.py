@@ -16,7 +16,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array
 
-from . import _depth
+from . import _depth, _jit
 from ._adc import saturated
 from ._chain import Chain, build_chain
 from ._mixer import TapCharges
@@ -181,18 +181,18 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None) -> Re
 # producer into each of its consumers, and would evaluate the exposure (and then the moments)
 # once per output of the next stage: 2x slower at 1e5 points. Under an outer jit (calibration, user
 # code) the three are traced into one program as usual.
-@eqx.filter_jit
+@_jit.jit
 def _predict_exposure(params: Params, sweep: Sweep, smooth: Smooth | None) -> tuple[Chain, TapCharges]:
     chain = build_chain(params, smooth, sweep.samples)
     d, ev, t = sweep.operating_points(params.scene)
     return chain, chain.expose(d, ev, t)
 
 
-@eqx.filter_jit
+@_jit.jit
 def _predict_moments(chain: Chain, sweep: Sweep, charges: TapCharges) -> Moments:
     return moments(chain, sweep, charges)
 
 
-@eqx.filter_jit
+@_jit.jit
 def _predict_result(chain: Chain, sweep: Sweep, m: Moments) -> Result:
     return analytic(chain, sweep, m)

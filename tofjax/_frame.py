@@ -27,6 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
+from . import _jit
 from ._analytic import analytic, moments
 from ._chain import Chain, build_chain
 from ._frames import point_constants
@@ -97,7 +98,7 @@ def frame_rays(params: Params, settings: FrameSettings, subpixel_samples: int | 
     return pixel_rays(params.camera, frame_shape(params) if shape is None else shape, s)
 
 
-@eqx.filter_jit
+@_jit.jit
 def _scene_returns(params, settings, geometry, sun_direction, bins, shape):
     rays = frame_rays(params, settings, shape=shape)
     surf = surface(geometry, rays, sun_direction)
@@ -128,7 +129,7 @@ def depth_returns(params: Params, settings: FrameSettings, depth_m, reflectivity
     return _depth_returns(params, settings, depth, jnp.asarray(reflectivity, dtype=float), radial, depth.shape)
 
 
-@eqx.filter_jit
+@_jit.jit
 def _depth_returns(params, settings, depth, reflectivity, radial, shape):
     rays = frame_rays(params, settings, 1, shape)
     surf = surface_from_depth(depth, reflectivity, rays, radial)
@@ -289,7 +290,7 @@ def _setup(params, settings, returns, pattern, smooth):
     return pattern, chain, _sweep(params, returns), charges, rays.centre
 
 
-@eqx.filter_jit
+@_jit.jit
 def _predict_frame(params, settings, returns, pattern, smooth):
     pattern, chain, sweep, charges, direction = _setup(params, settings, returns, pattern, smooth)
     result = analytic(chain, sweep, moments(chain, sweep, charges))
@@ -375,7 +376,7 @@ class NoisyFrames(eqx.Module):
 # Separate programs for the exposure, the frames' constants and the frames: in one, XLA on a CPU
 # fuses a producer into each of its consumers and evaluates it several times (one frame of 224 x 172
 # in one program: 32 ms). Under an outer jit they are traced into one program as usual.
-_setup_jit = eqx.filter_jit(_setup)
+_setup_jit = _jit.jit(_setup)
 
 #: Phase images per chunk of a frame's Monte Carlo (``run_blocks``' ``elements``): a whole 640 x 480
 #: frame of 4 phase images (1.2 M) is one block. On a CPU, XLA runs the loop over several blocks
@@ -385,7 +386,7 @@ _setup_jit = eqx.filter_jit(_setup)
 FRAME_CHUNK_ELEMENTS = 1 << 21
 
 
-@eqx.filter_jit
+@_jit.jit
 def _frame_constants(chain, charges):
     n = math.prod(charges.a.shape[:-1])
     flat = jax.tree_util.tree_map(lambda x: x.reshape((n,) + x.shape[2:]), charges)
@@ -402,7 +403,7 @@ def prepare_frame(params: Params, settings: FrameSettings, returns: Returns, pat
     return PreparedFrame(chain, sweep, Prepared(charges, consts), returns.radial_m, direction, pattern)
 
 
-@eqx.filter_jit
+@_jit.jit
 def _render_prepared(frame: PreparedFrame, key, frames, keep_frames, progress) -> Result:
     chain, n = frame.chain, math.prod(frame.shape)
     sums, kept = run_blocks(frames_step(chain, key_words(key)), frame.prepared.consts, n, frames, keep_frames,
@@ -410,17 +411,17 @@ def _render_prepared(frame: PreparedFrame, key, frames, keep_frames, progress) -
     return assemble(chain, frame.sweep, frame.prepared, sums, kept, frames)
 
 
-@eqx.filter_jit
+@_jit.jit
 def _predict_prepared(chain, sweep, charges) -> Result:
     return analytic(chain, sweep, moments(chain, sweep, charges))
 
 
-@eqx.filter_jit
+@_jit.jit
 def _noise_image_prepared(chain, sweep, charges) -> Array:
     return analytic(chain, sweep, moments(chain, sweep, charges)).depth_std_m
 
 
-@eqx.filter_jit
+@_jit.jit
 def _sample_prepared(chain, consts, key, frames, shape) -> NoisyFrames:
     n = math.prod(shape)
     _, (_, phase, amplitude, valid) = run_blocks(frames_step(chain, key_words(key)), consts, n, frames, frames,

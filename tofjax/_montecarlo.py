@@ -9,6 +9,7 @@ import jax.numpy as jnp
 import jax.random as jr
 from jaxtyping import Array, PRNGKeyArray
 
+from . import _jit
 from ._analytic import full_well_fraction, unwrap_if_sweep
 from ._chain import Chain, build_chain
 from ._depth import unwrap_along_sweep
@@ -143,7 +144,7 @@ def monte_carlo(chain: Chain, sweep: Sweep, key: PRNGKeyArray, iterations: int, 
     return assemble(chain, sweep, prepared, sums, kept, iterations)
 
 
-@eqx.filter_jit
+@_jit.jit
 def simulate(
     params: Params,
     sweep: Sweep,

@@ -42,6 +42,7 @@ import jax.random as jr
 import numpy as np
 from jaxtyping import Array, Bool, Float, PRNGKeyArray
 
+from . import _jit
 from ._analytic import analytic, moments
 from ._chain import build_chain
 from ._frames import draw_frames, reduce_frames, run_blocks, wrap
@@ -176,7 +177,7 @@ def predict_multifrequency(params: Params, sweep: Sweep, frequencies_hz, *, fusi
     return _predict(params, sweep, jnp.asarray(freqs), float(extended_range_m(freqs, c)), ranges, fusion, smooth)
 
 
-@eqx.filter_jit
+@_jit.jit
 def _predict(params, sweep, freqs, extended, ranges, fusion, smooth) -> MultiFrequencyResult:
     ranges_np = np.asarray(ranges)
     per = jax.vmap(lambda f: analytic(build_chain(_with_frequency(params, f), smooth, sweep.samples), sweep))(freqs)
@@ -216,7 +217,7 @@ def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, ite
                      ranges, progress, fusion)
 
 
-@eqx.filter_jit
+@_jit.jit
 def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges, progress=False,
               fusion="inverse_variance") -> MultiFrequencyResult:
     ranges = np.asarray(ranges)  # concrete: the number of unwrapping candidates depends on them
