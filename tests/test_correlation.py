@@ -9,7 +9,8 @@ import pytest
 from helpers import fd_check
 
 import tofjax
-from tofjax._correlation import correlation, series
+from tofjax._correlation import N_TABLE, _spectral_table, correlation, correlation_coefficients, series
+from tofjax._waveforms import phase_steps
 from tofjax._mixer import split_between_taps
 
 WAVEFORMS = [("pulse", 0.5, "pulse", 0.5), ("pulse", 0.25, "pulse", 0.5), ("sine", 1.0, "sine", 1.0),
@@ -41,6 +42,17 @@ def test_table_matches_the_1024_harmonic_series_within_its_bound(waves, n):
     tabled = split_between_taps(table(DELAYS), 0.42, active, jnp.zeros(DELAYS.shape))
     for e, t in zip(exact, tabled, strict=True):
         np.testing.assert_allclose(t, e, rtol=1e-6)
+
+
+@pytest.mark.parametrize("n", [2, 4])
+def test_rolled_table_equals_one_transform_per_phase_step(n):
+    """2 and 4 phase steps are whole grid rows: the table is the first step's, rolled. It equals
+    the table made with one transform per step (to the FFTs' rounding, 1e-12 of the swing)."""
+    ill, ref = _waves("gauss_extended", 0.25, "pulse", 0.5)
+    rolled = np.asarray(correlation(ill, ref, n).table)[:-1]
+    p = correlation_coefficients(ill, ref)
+    direct = np.asarray(_spectral_table(p, jnp.arange(p.shape[0], dtype=float), phase_steps(n), N_TABLE))
+    np.testing.assert_allclose(rolled, direct, rtol=0, atol=1e-12 * np.max(np.abs(direct)))
 
 
 def test_rectangular_pair_correlates_to_a_triangle():

@@ -7,7 +7,8 @@ Tap A collects the fraction a_j of the modulated light, phase step theta_j, at r
 with R_k, S_k the Fourier coefficients of reference and emitted waveform (:mod:`tofjax._waveforms`).
 The series is the model's correlation; evaluating it per sample costs K complex exponentials per
 phase. For a call with many operating points, one inverse real FFT per phase step instead puts a_j
-and its derivative on a grid of :data:`N_TABLE` points per period, once per call, and every sample is
+and its derivative on a grid of :data:`N_TABLE` points per period, once per call (for 2 and 4 phases,
+whose steps are whole grid rows, the first step's table rolled: a_j(phi) = a_0(phi - theta_j)), and every sample is
 a cubic Hermite interpolation between two grid rows: O(phases) per sample, C^1 in the distance (the
 interpolant's derivative is exact at the grid points), and differentiable in the duty cycles through
 the coefficients. A call with at most :data:`SERIES_POINTS` operating points sums the series directly
@@ -26,6 +27,7 @@ from __future__ import annotations
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jax import lax
 from jaxtyping import Array, Complex, Float
 
@@ -95,14 +97,27 @@ def correlation(illumination: AbstractWaveform, reference: AbstractWaveform, n_p
     if not tabulate:
         return Correlation(p, n_phases, None, jnp.asarray(0.0))
     k = jnp.arange(n_harmonics + 1, dtype=float)
-    theta = jnp.asarray(phase_steps(n_phases))
-    spectra = p[None, :] * jnp.exp(-1j * (k[None, :] * theta[:, None]).astype(p.dtype))  # delay phi - theta_j
-    values = points * jnp.fft.irfft(spectra, n=points, axis=-1)
-    slopes = jnp.fft.irfft(2j * jnp.pi * k.astype(p.dtype)[None, :] * spectra, n=points, axis=-1)  # d a / d(grid step)
-    table = jnp.stack([values, slopes], axis=-1).transpose(1, 0, 2)  # (points, phases, 2)
+    theta = phase_steps(n_phases)
+    shifts = theta / (2.0 * np.pi) * points  # each phase step in grid steps
+    if np.all(shifts == np.round(shifts)):
+        # 2 and 4 phases on a power-of-two grid: a_j(phi) = a_0(phi - theta_j) is the table of the
+        # first step rolled by whole rows (exact), one pair of transforms instead of one per step.
+        table = jnp.stack([jnp.roll(_spectral_table(p, k, np.zeros(1), points)[:, 0], int(s), axis=0)
+                           for s in shifts], axis=1)
+    else:
+        table = _spectral_table(p, k, theta, points)
     table = jnp.concatenate([table, table[:1]], axis=0)
     fourth = 2.0 * jnp.sum(jnp.abs(p[1:]) * (2.0 * jnp.pi * k[1:]) ** 4)
     return Correlation(p, n_phases, table, fourth / (384.0 * points**4))
+
+
+def _spectral_table(p: Complex[Array, " harmonics"], k: Array, theta: np.ndarray, points: int) -> Float[Array, "points phases 2"]:
+    """a_j and its slope per grid step at the ``points`` grid points of a period, for phase steps
+    ``theta``: one inverse real FFT each of the series' coefficients (module docstring)."""
+    spectra = p[None, :] * jnp.exp(-1j * (k[None, :] * jnp.asarray(theta)[:, None]).astype(p.dtype))  # delay phi - theta_j
+    values = points * jnp.fft.irfft(spectra, n=points, axis=-1)
+    slopes = jnp.fft.irfft(2j * jnp.pi * k.astype(p.dtype)[None, :] * spectra, n=points, axis=-1)  # d a / d(grid step)
+    return jnp.stack([values, slopes], axis=-1).transpose(1, 0, 2)
 
 
 def _series(p: Complex[Array, " harmonics"], n_phases: int, delay_periods: Float[Array, "*b"]) -> Float[Array, "*b phases"]:
