@@ -48,7 +48,8 @@ def test_normals_have_gaussian_moments_and_independent_streams():
     assert flat.var() == pytest.approx(1.0, abs=5 * np.sqrt(2 / n))
     assert np.mean(flat**4) == pytest.approx(3.0, abs=5 * np.sqrt(96 / n))
     assert stats.kstest(flat[:200_000], "norm").pvalue > 1e-3
-    # The four words of a counter, neighbouring counters and another stream are uncorrelated.
+    # Neighbouring blocks (the normals of one counter), neighbouring counters and another stream are
+    # uncorrelated.
     other = np.asarray(_random.normals(key, frame, jnp.uint32(7), 1, 4)).astype(float)
     for a, b in ((z[0], z[1]), (z[0, :-1], z[0, 1:]), (z[2], other[2])):
         assert abs(np.corrcoef(a, b)[0, 1]) < 5 / np.sqrt(a.size)
