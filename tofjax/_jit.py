@@ -19,12 +19,8 @@ import functools
 import inspect
 from collections.abc import Callable
 
+import equinox as eqx
 import jax
-import numpy as np
-
-
-def _is_array(x) -> bool:
-    return isinstance(x, (jax.Array, np.ndarray, np.generic))
 
 
 def jit(fn: Callable) -> Callable:
@@ -44,7 +40,7 @@ def jit(fn: Callable) -> Callable:
         bound = signature.bind(*args, **kwargs)
         bound.apply_defaults()
         leaves, treedef = jax.tree_util.tree_flatten((bound.args, bound.kwargs))
-        mask = tuple(_is_array(x) for x in leaves)
+        mask = tuple(eqx.is_array(x) for x in leaves)  # equinox.filter_jit's split
         statics = tuple(x for x, m in zip(leaves, mask, strict=True) if not m)
         key = (treedef, mask, statics)
         compiled = cache.get(key)
