@@ -136,6 +136,11 @@ def padded_samples(n: int) -> int:
     return max(MIN_PADDED_POINTS, 1 << (n - 1).bit_length())
 
 
+def _on_device_of(array, host: np.ndarray):
+    """``host`` put on the device that holds ``array``."""
+    return jax.device_put(host, next(iter(array.devices())))
+
+
 def pad_sweep(sweep: Sweep) -> Sweep:
     """A 1-D ``sweep`` of concrete values padded to :func:`padded_samples` points with copies of its
     last point (the points are independent; :func:`tofjax._depth.unwrap_along_sweep` runs from the
@@ -145,11 +150,11 @@ def pad_sweep(sweep: Sweep) -> Sweep:
     if len(sweep.shape) != 1 or extra == 0:
         return sweep
 
-    def pad(x):  # on the host and put back on its device: an array operation would compile for each new length
+    def pad(x):  # on the host: an array operation would compile for each new length
         if x is None:
             return None
         host = np.asarray(x)
-        return jax.device_put(np.concatenate([host, np.repeat(host[-1:], extra)]), next(iter(x.devices())))
+        return _on_device_of(x, np.concatenate([host, np.repeat(host[-1:], extra)]))
 
     return Sweep(sweep.variable, pad(sweep.values), pad(sweep.distance_m), pad(sweep.illuminance_lx),
                  pad(sweep.integration_time_s))
@@ -162,7 +167,7 @@ def unpad(tree, sweep: Sweep, padded: Sweep):
         return tree
     n = sweep.samples
 
-    def cut(x):  # sliced on the host and put back on its device: a slice would compile for each new length
-        return jax.device_put(np.asarray(x)[:n], next(iter(x.devices()))) if jnp.ndim(x) >= 1 else x
+    def cut(x):  # sliced on the host: a slice would compile for each new length
+        return _on_device_of(x, np.asarray(x)[:n]) if jnp.ndim(x) >= 1 else x
 
     return jax.tree_util.tree_map(cut, tree)
