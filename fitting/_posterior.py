@@ -92,8 +92,14 @@ def sample_posterior(problem: Problem, least_squares: LeastSquaresResult, *, wal
                          f"(2 x {ndim} parameters)")
     if steps < 1:
         raise ValueError(f"steps = {steps} is out of range: allowed integer >= 1")
+    half = walkers // 2
+
     def log_prob(u: np.ndarray) -> np.ndarray:
-        out = np.array(batched_log_posterior(problem, np.asarray(u, dtype=float)), dtype=float)  # writable
+        # emcee evaluates all walkers once (the start) and then half of them per move: the start
+        # in halves too, so that one batch shape (one compiled program) serves the whole run.
+        u = np.asarray(u, dtype=float)
+        out = np.concatenate([np.asarray(batched_log_posterior(problem, u[i:i + half]), dtype=float)
+                              for i in range(0, len(u), half)])
         out[~np.isfinite(out)] = -np.inf
         return out
 

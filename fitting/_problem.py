@@ -78,9 +78,25 @@ def observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float,
                        jnp.max(p.adc_saturated_fraction, axis=0), caveats)
 
 
-@eqx.filter_jit
+#: :func:`hard_observables` runs a multiple of this many operating points, so that the checks at the
+#: solution (a group's rows) and the comparisons (a file's rows and dense points) share its programs.
+HARD_BUCKET = 256
+
+
 def hard_observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str) -> Observables:
-    """:func:`observables` of the hard model (no relaxation), compiled: what the camera can measure."""
+    """:func:`observables` of the hard model (no relaxation), compiled: what the camera can measure.
+    ``sweep`` is 1-D; it runs padded to a multiple of :data:`HARD_BUCKET` points (copies of its last
+    one), and the result (host arrays) has its own points only."""
+    n = sweep.samples
+    extra = -n % HARD_BUCKET
+    pad = lambda x: np.concatenate([np.asarray(x), np.repeat(np.asarray(x)[-1:], extra)])  # noqa: E731
+    padded = tj.Sweep.points(sweep.variable, *(pad(getattr(sweep, name)) for name in _OPERATING_POINT))
+    obs = jax.device_get(_hard_observables(params, padded, frequencies_hz, fusion))
+    return jax.tree_util.tree_map(lambda x: x[:n], obs)
+
+
+@eqx.filter_jit
+def _hard_observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str) -> Observables:
     return observables(params, sweep, frequencies_hz, fusion, None)
 
 

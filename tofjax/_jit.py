@@ -35,6 +35,8 @@ def jit(fn: Callable) -> Callable:
         args, kwargs = jax.tree_util.tree_unflatten(treedef, leaves)
         return fn(*args, **kwargs)
 
+    body.__name__, body.__qualname__ = fn.__name__, fn.__qualname__  # profiles and logs name the program
+
     @functools.wraps(fn)
     def call(*args, **kwargs):
         bound = signature.bind(*args, **kwargs)
