@@ -75,11 +75,12 @@ def test_monte_carlo_frames_match_the_analytic_noise_image(params, one_ray):
     assert 0.03 < np.std(ratio) < 0.055
     assert mc.frames_radial_m.shape == (2, ROWS, COLS)
     np.testing.assert_allclose(mc.radial_m, an.radial_m, atol=4 * float(np.max(an.depth_std_m)) / np.sqrt(300))
-    # A prepared scene renders the same frames (frame k of a key is frame k, however many are drawn)
-    # and the same noise image.
+    # A prepared scene renders the same frames (frame k of a key is frame k, however many are drawn:
+    # the same draws, to the last bit's rounding, as each program is fused on its own) and the same
+    # noise image.
     prepared = tj.prepare_frame(params, one_ray, returns)
-    np.testing.assert_array_equal(prepared.render(jax.random.key(1), 2, keep_frames=2).frames_radial_m,
-                                  mc.frames_radial_m)
+    np.testing.assert_allclose(prepared.render(jax.random.key(1), 2, keep_frames=2).frames_radial_m,
+                               mc.frames_radial_m, rtol=1e-15, atol=0)
     np.testing.assert_allclose(prepared.predict().depth_std_m, an.depth_std_m, rtol=1e-12)
     # The noise image alone (a program that computes nothing else) is the analytic frame's (to the
     # last bits: XLA fuses the smaller program differently), also inside a jit of the user's, and
@@ -90,8 +91,23 @@ def test_monte_carlo_frames_match_the_analytic_noise_image(params, one_ray):
     sampled = prepared.sample(jax.random.key(1), 2)
     kept = mc.result.valid.transpose(2, 0, 1)
     np.testing.assert_array_equal(sampled.valid, kept)
-    np.testing.assert_array_equal(sampled.radial_m, np.where(kept, mc.frames_radial_m, np.nan))
-    np.testing.assert_array_equal(sampled.amplitude_lsb, mc.result.amplitude_lsb.transpose(2, 0, 1))
+    np.testing.assert_allclose(sampled.radial_m, np.where(kept, mc.frames_radial_m, np.nan), rtol=1e-15, atol=0)
+    np.testing.assert_allclose(sampled.amplitude_lsb, mc.result.amplitude_lsb.transpose(2, 0, 1), rtol=1e-15, atol=0)
+
+
+def test_frames_sampled_in_several_chunks_are_the_kept_frames(params, one_ray, monkeypatch):
+    """More frames than a chunk holds: ``sample`` draws them chunk by chunk (here 3 chunks of 2 for 5
+    frames), and frame k is still frame k of the key (the frames ``render`` keeps, drawn at once)."""
+    from tofjax import _frame
+
+    prepared = tj.prepare_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(1.3, 0.9)))
+    monkeypatch.setattr(_frame, "FRAME_CHUNK_ELEMENTS", 2 * ROWS * COLS * params.pixel.n_phases)
+    sampled = prepared.sample(jax.random.key(1), 5)
+    kept = prepared.render(jax.random.key(1), 5, keep_frames=5)
+    valid = kept.result.valid.transpose(2, 0, 1)
+    np.testing.assert_array_equal(sampled.valid, valid)
+    np.testing.assert_allclose(sampled.radial_m, np.where(valid, kept.frames_radial_m, np.nan), rtol=1e-15, atol=0)
+    np.testing.assert_allclose(sampled.amplitude_lsb, kept.result.amplitude_lsb.transpose(2, 0, 1), rtol=1e-15, atol=0)
 
 
 def test_a_flat_wall_falls_off_as_profile_times_cos4_times_incidence(params):

@@ -30,7 +30,7 @@ from jaxtyping import Array, Float, PRNGKeyArray
 from . import _jit
 from ._analytic import analytic, moments
 from ._chain import Chain, build_chain
-from ._frames import point_constants
+from ._frames import draw_frames, point_constants
 from ._mixer import TapCharges, scene_photon_irradiance
 from ._montecarlo import Prepared, assemble, check_counts, frames_step, run_blocks
 from ._noise import dark_electrons
@@ -423,12 +423,25 @@ def _noise_image_prepared(chain, sweep, charges) -> Array:
 
 @_jit.jit
 def _sample_prepared(chain, consts, key, frames, shape) -> NoisyFrames:
-    n = math.prod(shape)
-    _, (_, phase, amplitude, valid) = run_blocks(frames_step(chain, key_words(key)), consts, n, frames, frames,
-                                                 chain.n_phases, FRAME_CHUNK_ELEMENTS)
-    image = lambda x: jnp.moveaxis(x.reshape(shape + (frames,)), -1, 0)  # noqa: E731 - (pixels, frames) -> (frames, *shape)
-    radial = jnp.where(valid, phase * (chain.unambiguity_range_m / (2.0 * jnp.pi)), jnp.nan)
-    return NoisyFrames(image(radial), image(amplitude), image(valid))
+    # Frames first throughout (the frames :func:`run_blocks` keeps are points first): no transposes,
+    # which cost more than the frames themselves (8 frames of 224 x 172: 19 of 35 ms). Chunks of
+    # frames as in run_blocks, in a lax.map when there are several.
+    n, words = math.prod(shape), key_words(key)
+    n_chunks = -(-frames // max(1, FRAME_CHUNK_ELEMENTS // (n * chain.n_phases)))
+    chunk = -(-frames // n_chunks)
+    to_m = chain.unambiguity_range_m / (2.0 * jnp.pi)
+
+    def one(first):
+        f = draw_frames(chain, consts, words, first, chunk, frames_first=True)
+        valid = ~f.pixel_saturated & ~f.adc_saturated
+        return jnp.where(valid, jnp.mod(f.phase, 2.0 * jnp.pi) * to_m, jnp.nan), f.amplitude, valid
+
+    if n_chunks == 1:
+        out = one(jnp.uint32(0))
+    else:
+        out = jax.tree_util.tree_map(lambda x: x.reshape((n_chunks * chunk, n))[:frames],
+                                     jax.lax.map(one, chunk * jnp.arange(n_chunks, dtype=jnp.uint32)))
+    return NoisyFrames(*(x.reshape((frames, *shape)) for x in out))
 
 
 def render_frame(params: Params, settings: FrameSettings, returns: Returns, key: PRNGKeyArray, frames: int = 1, *,
