@@ -22,6 +22,7 @@ from ._chain import Chain, build_chain
 from ._mixer import TapCharges
 from ._noise import AFTER_LIMIT, BEFORE_LIMIT
 from ._params import Params
+from ._reduce import max_last, mean_last
 from ._result import CAVEAT_COARSE_QUANTIZATION, CAVEAT_LOW_SNR, CAVEAT_NEAR_LIMIT, Result, snr_db
 from ._smooth import Smooth
 from ._sweep import Sweep, check_inputs, pad_sweep, unpad
@@ -35,8 +36,8 @@ def full_well_fraction(n_a: Array, n_b: Array, full_well: Array) -> Array:
     the full well N_sat, per operating point: SBI engages or the tap saturates above 1 (§3.2.5).
     ``full_well``: a scalar, or one per point with a trailing axis of 1 (a frame's pixels)."""
     if jnp.ndim(full_well) == 0:
-        return jnp.max(jnp.maximum(n_a, n_b), axis=-1) / full_well
-    return jnp.max(jnp.maximum(n_a, n_b) / full_well, axis=-1)
+        return max_last(jnp.maximum(n_a, n_b)) / full_well
+    return max_last(jnp.maximum(n_a, n_b) / full_well)
 
 
 def unwrap_if_sweep(phase: Array, keep: Array) -> Array:
@@ -133,7 +134,7 @@ def analytic(chain: Chain, sweep: Sweep, m: Moments | None = None) -> Result:
         depth_std_m=_nan_unless(keep, to_m * _depth.safe_sqrt(var_phase)),
         amplitude_mean_lsb=_nan_unless(keep, amp),
         amplitude_std_lsb=_nan_unless(keep, _depth.safe_sqrt(var_amp)),
-        intensity_e=jnp.mean(0.5 * (held_a + held_b), axis=-1),
+        intensity_e=mean_last(0.5 * (held_a + held_b)),
         snr_db=snr_db(breakdown), noise=breakdown,
         valid_fraction=valid.astype(float), pixel_saturated_fraction=pixel_sat.astype(float),
         adc_saturated_fraction=adc_sat.astype(float),

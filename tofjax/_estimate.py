@@ -33,6 +33,7 @@ from jaxtyping import Array, Float
 
 from ._chain import build_chain
 from ._params import Params
+from ._reduce import mean_last
 from ._sweep import Sweep, check_inputs
 from ._waveforms import fourier_coefficients
 
@@ -44,7 +45,7 @@ def _budget(params: Params, sweep: Sweep):
     charges = chain.expose(*sweep.operating_points(params.scene))
     readout = chain.readout
     quant_e2 = chain.readout.quantization_variance_lsb2 * readout.lsb_e**2 if chain.noise.enabled else 0.0
-    var_d = jnp.mean(chain.noise.differential_variance_e2(charges), axis=-1) + quant_e2
+    var_d = mean_last(chain.noise.differential_variance_e2(charges)) + quant_e2
     return charges.signal_e, var_d
 
 

@@ -17,6 +17,7 @@ from ._frames import BLOCK_POINTS, CHUNK_ELEMENTS, PointConstants, Sums, draw_fr
 from ._mixer import TapCharges
 from ._params import Params
 from ._random import key_words
+from ._reduce import mean_last
 from ._result import Result, snr_db
 from ._smooth import Smooth
 from ._sweep import Sweep, check_inputs
@@ -133,7 +134,7 @@ def assemble(chain: Chain, sweep: Sweep, prepared: Prepared, sums: Sums, kept, i
         depth_mean_m=to_m * mean_phase,
         depth_unwrapped_mean_m=to_m * unwrap_if_sweep(jnp.where(has_mean, mean_phase, 0.0), has_mean),
         depth_std_m=to_m * std_phase, amplitude_mean_lsb=points(amp_mean), amplitude_std_lsb=points(amp_std),
-        intensity_e=jnp.mean(0.5 * (held_a + held_b), axis=-1),
+        intensity_e=mean_last(0.5 * (held_a + held_b)),
         snr_db=snr_db(breakdown), noise=breakdown,
         valid_fraction=fraction(sums.valid), pixel_saturated_fraction=fraction(sums.pixel_saturated),
         adc_saturated_fraction=fraction(sums.adc_saturated), sbi_active_fraction=fraction(sums.sbi_engaged),

@@ -41,6 +41,7 @@ from jaxtyping import Array, Float
 
 from . import _constants as const
 from ._params import Params, PhysicalConstants, Pixel
+from ._reduce import mean_last
 
 if TYPE_CHECKING:
     from ._mixer import TapCharges
@@ -221,7 +222,7 @@ class NoiseBudget(eqx.Module):
         sources, read, total = {}, jnp.zeros(shape), jnp.zeros(shape)
         for source in self.sources:
             a, b = source.variance_e2(charges)
-            var = jnp.mean(jnp.broadcast_to(a + b, charges.photo_a.shape), axis=-1)
+            var = mean_last(jnp.broadcast_to(a + b, charges.photo_a.shape))
             sources[source.name] = jnp.sqrt(var)
             total = total + var
             if source.read:
