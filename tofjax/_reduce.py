@@ -1,4 +1,4 @@
-"""Reductions over a short last axis (phases, returns), written as elementwise operations.
+"""Reductions over a short last axis (the phases), written as elementwise operations.
 
 XLA's CPU backend runs a reduction over a few trailing elements of many rows as a library kernel
 that costs 2-4x the same sum written as adds of the axis' slices, which XLA fuses into one loop with
