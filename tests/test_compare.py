@@ -169,7 +169,7 @@ def test_calibration_leaves_out_what_the_fitted_model_cannot_measure(files, tmp_
     (flag,) = cal.least_squares.bound_flags
     assert flag["name"] == "pixel.dark_slope_mean_v_per_s" and flag["bound"] == "lower"
     # The dark slope walks to its bound, where chi^2 stops changing: the fit stops after a stalled
-    # segment instead of walking its unconstrained coordinate to underflow (641 steps).
+    # segment instead of walking its unconstrained coordinate on (666 steps before segments).
     assert cal.least_squares.converged and cal.least_squares.steps <= 2 * ft._least_squares.SEGMENT_STEPS
     assert "chi^2 fell by" in cal.least_squares.solver_message
     written = {p.name for p in cal.write(tmp_path / "out")}
