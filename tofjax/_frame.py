@@ -30,7 +30,7 @@ from jaxtyping import Array, Float, PRNGKeyArray
 from . import _jit
 from ._analytic import analytic, moments
 from ._chain import Chain, build_chain
-from ._frames import draw_frames, point_constants
+from ._frames import draw_frames, equal_parts, point_constants
 from ._mixer import TapCharges, scene_photon_irradiance
 from ._montecarlo import Prepared, assemble, check_counts, frames_step, run_blocks
 from ._noise import dark_electrons
@@ -427,8 +427,8 @@ def _sample_prepared(chain, consts, key, frames, shape) -> NoisyFrames:
     # which cost more than the frames themselves (8 frames of 224 x 172: 19 of 35 ms). Chunks of
     # frames as in run_blocks, in a lax.map when there are several.
     n, words = math.prod(shape), key_words(key)
-    n_chunks = -(-frames // max(1, FRAME_CHUNK_ELEMENTS // (n * chain.n_phases)))
-    chunk = -(-frames // n_chunks)
+    chunk = equal_parts(frames, FRAME_CHUNK_ELEMENTS // (n * chain.n_phases))
+    n_chunks = -(-frames // chunk)
     to_m = chain.unambiguity_range_m / (2.0 * jnp.pi)
 
     def one(first):
