@@ -203,8 +203,8 @@ def invalid_at(problem: Problem, theta, rows: list[SweepRows]) -> list[tuple[int
     reason)."""
     out = []
     for group in problem.groups:
-        obs = jax.device_get(hard_observables(problem.with_values(group.params, jnp.asarray(theta)),
-                                              group.data_sweep(), group.frequencies_hz, group.fusion))
+        obs = hard_observables(problem.with_values(group.params, jnp.asarray(theta)), group.data_sweep(),
+                               group.frequencies_hz, group.fusion)  # host arrays
         for i, (lo, hi) in zip(group.files, group.bounds, strict=True):
             r = rows[i]
             used = np.zeros(r.n_rows, bool)

@@ -31,15 +31,12 @@ import io
 import math
 from pathlib import Path
 
-import jax
 import numpy as np
 import tofjax as tj
 
 from ._data import Measurement, read_measurement
 from ._problem import DENSE_POINTS, dense_sweep, hard_observables
 
-#: Rows are padded to a multiple of this, so files of similar length share one compiled program.
-_ROW_BUCKET = 64
 #: Ratios within this factor of 1 count as agreeing in the summaries (30 %).
 AGREEMENT = 0.3
 _SCALE = {"distance": ("distance [m]", 1.0), "illuminance": ("background illuminance [lx]", 1.0),
@@ -91,15 +88,11 @@ class FileComparison:
                 "rms_log_ratio": float(np.sqrt(np.mean(np.log(r[use]) ** 2)))}
 
 
-def _padded_sweep(m: Measurement, dense: dict[str, np.ndarray]) -> tuple[tj.Sweep, int]:
-    n = m.data.n_rows
-    size = _ROW_BUCKET * math.ceil(n / _ROW_BUCKET)
-    columns = {}
-    for name in ("distance_m", "illuminance_lx", "integration_time_s"):
-        rows = np.asarray(getattr(m.sweep, name))
-        pad = np.full(size - n, rows[0])
-        columns[name] = np.concatenate([rows, pad, dense[name]])
-    return tj.Sweep.points("distance", **columns), size
+def _rows_and_dense(m: Measurement, dense: dict[str, np.ndarray]) -> tj.Sweep:
+    """The file's rows, then the dense points: one call (which pads them to its bucket, so files of
+    similar length share its program)."""
+    return tj.Sweep.points("distance", **{name: np.concatenate([np.asarray(getattr(m.sweep, name)), dense[name]])
+                                          for name in ("distance_m", "illuminance_lx", "integration_time_s")})
 
 
 def _nearest_period(depth: np.ndarray, truth: np.ndarray, period: float) -> np.ndarray:
@@ -109,13 +102,13 @@ def _nearest_period(depth: np.ndarray, truth: np.ndarray, period: float) -> np.n
 def compare_measurement(m: Measurement) -> FileComparison:
     """The model beside one checked file (module docstring)."""
     dense = dense_sweep(m.sweep, DENSE_POINTS)
-    sweep, size = _padded_sweep(m, dense)
-    obs = jax.device_get(hard_observables(m.config.params, sweep, tuple(m.frequencies_hz), m.fusion))
+    sweep = _rows_and_dense(m, dense)
+    obs = hard_observables(m.config.params, sweep, tuple(m.frequencies_hz), m.fusion)  # host arrays
     n = m.data.n_rows
 
-    def get(name: str, part: str) -> np.ndarray:  # the data rows, or the dense points after the padding
+    def get(name: str, part: str) -> np.ndarray:  # the data rows, or the dense points after them
         value = np.asarray(getattr(obs, name))
-        return value[:n] if part == "rows" else value[size:]
+        return value[:n] if part == "rows" else value[n:]
 
     c = float(m.config.params.constants.speed_of_light_m_per_s)
     period = (float(tj.extended_range_m(m.frequencies_hz, c)) if len(m.frequencies_hz) > 1
