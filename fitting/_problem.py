@@ -95,7 +95,7 @@ def hard_observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[f
     return jax.tree_util.tree_map(lambda x: x[:n], obs)
 
 
-@eqx.filter_jit
+@tj.jit
 def _hard_observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str) -> Observables:
     return observables(params, sweep, frequencies_hz, fusion, None)
 
@@ -345,7 +345,7 @@ class Linearization(eqx.Module):
 
 # Module-level compiled entry points: they take the problem as an argument, so every problem of
 # the same structure (parameters, file groups' row counts and static settings) reuses one compilation.
-@eqx.filter_jit
+@tj.jit
 def linearize(problem: Problem, u) -> Linearization:
     """Residuals, model values and dense curves at ``u``, with their Jacobians: one program for the
     least-squares steps and for everything the fit reports at its solution."""
@@ -365,16 +365,16 @@ def linearize(problem: Problem, u) -> Linearization:
     return Linearization(theta, dtheta, residuals, jac, evaluated, curves, curves_jac)
 
 
-@eqx.filter_jit
+@tj.jit
 def evaluate(problem: Problem, theta):
     return problem.evaluate(theta)
 
 
-@eqx.filter_jit
+@tj.jit
 def batched_log_posterior(problem: Problem, u_batch):
     return jax.vmap(problem.log_posterior)(u_batch)
 
 
-@eqx.filter_jit
+@tj.jit
 def batched_curves(problem: Problem, thetas):
     return jax.vmap(problem.dense_curves)(thetas)

@@ -1,5 +1,5 @@
-"""tofjax._jit.jit: equinox.filter_jit's semantics (arrays traced, other leaves static) with one
-jax.jit per argument structure."""
+"""tofjax.jit (tofjax._jit.jit): equinox.filter_jit's semantics (arrays traced, other leaves static)
+with one jax.jit per argument structure."""
 
 import equinox as eqx
 import jax
@@ -7,6 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+import tofjax
 from tofjax import _jit
 
 
@@ -48,6 +49,11 @@ def test_under_grad_vmap_and_jit():
     np.testing.assert_allclose(v, 2.0 * jnp.arange(6.0).reshape(3, 2) ** 2, rtol=0, atol=0)
     j = jax.jit(lambda x: f(Box(x, 2.0), 1))(jnp.array([5.0]))
     np.testing.assert_allclose(j, [10.0], rtol=0, atol=0)
+
+
+def test_public_name_is_the_wrapper():
+    """The siblings (fitting) compile their hot entry points with it: the public name is this function."""
+    assert tofjax.jit is _jit.jit and "jit" in tofjax.__all__
 
 
 def test_unknown_argument_refused():

@@ -43,7 +43,7 @@ _EXPORTS = {
     "waveform_mean": "_waveforms",
     "Chain": "_chain", "build_chain": "_chain",
     "AbstractNoiseSource": "_noise", "NoiseBudget": "_noise", "NOISE_SOURCES": "_noise",
-    "get_leaf": "_leaves", "set_leaves": "_leaves",
+    "get_leaf": "_leaves", "set_leaves": "_leaves", "jit": "_jit",
     "SPEED_OF_LIGHT_M_PER_S": "_constants",
     "PRESETS": "_presets", "Preset": "_presets", "preset_config": "_presets", "preset_text": "_presets",
     "FrameSettings": "_frame", "FrameResult": "_frame", "FLAGS": "_frame", "frame_shape": "_frame",
