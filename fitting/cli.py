@@ -112,7 +112,8 @@ def run(args) -> int:
                 from ._posterior import ShortChainWarning
 
                 warnings.simplefilter("ignore", ShortChainWarning)
-            with reporting(Progress(args.max_steps, "least squares", unit="step", enabled=not args.quiet)):
+            with reporting(Progress(args.max_steps, "least squares", unit="step", enabled=not args.quiet,
+                                    upper_bound=True)):
                 cal = calibrate(args.sweeps, config, fit=names, bounds=dict(args.bounds), priors=dict(args.prior),
                                 relative_error=args.relative_error, min_snr=args.min_snr, mcmc=args.mcmc,
                                 walkers=args.walkers, steps=args.steps, seed=args.seed, backend=args.backend,

@@ -30,17 +30,25 @@ def _duration(seconds: float) -> str:
 
 class Progress:
     """``total`` steps of ``unit`` (``initial`` already done); :meth:`update` adds steps (thread-safe:
-    a JAX host callback may call it); a context manager that finishes the bar or the lines."""
+    a JAX host callback may call it); a context manager that finishes the bar or the lines.
+
+    ``upper_bound``: ``total`` is the most steps the run may take, not what it will take (the least
+    squares' ``--max-steps``): the lines then say "at most" instead of a percentage and "about".
+    ``clock``: seconds, monotonic (tests pass their own).
+    """
 
     def __init__(self, total: float, desc: str, *, unit: str = "step", initial: float = 0, enabled: bool = True,
-                 stream=None, every_s: float = EVERY_S, quiet_for_s: float = QUIET_FOR_S):
+                 stream=None, every_s: float = EVERY_S, quiet_for_s: float = QUIET_FOR_S, upper_bound: bool = False,
+                 clock=time.monotonic):
         self.total, self.desc, self.unit = float(total), desc, unit
         self.done = float(initial)
-        self._initial = float(initial)
+        self.upper_bound = upper_bound
         self.enabled = enabled and total > 0
         self.stream = sys.stderr if stream is None else stream
         self.every_s, self.quiet_for_s = every_s, quiet_for_s
-        self._start = time.monotonic()
+        self._clock = clock
+        self._start = clock()
+        self._first: tuple[float, float] | None = None  # (time, steps done) at the first update
         self._last_line = self._start
         self._bar = None
         self._lock = threading.Lock()
@@ -53,18 +61,25 @@ class Progress:
         self.close()
 
     def eta_s(self) -> float | None:
-        """Seconds left at the average rate so far (``None`` before the first step)."""
-        made = self.done - self._initial
+        """Seconds left at the rate since the first update (``None`` until a step after it is done).
+        The first step carries what a run does once, above all the compilation: 10 s or more where
+        a least-squares step then takes 30 ms, so a rate that counted it made ``calibrate``'s first
+        line say "about 12.3 h left" for a fit of a minute."""
+        if self._first is None:
+            return None
+        t0, done0 = self._first
+        made = self.done - done0
         if made <= 0:
             return None
-        return (time.monotonic() - self._start) / made * max(self.total - self.done, 0.0)
+        return (self._clock() - t0) / made * max(self.total - self.done, 0.0)
 
     def line(self) -> str:
-        elapsed = time.monotonic() - self._start
+        elapsed = self._clock() - self._start
         eta = self.eta_s()
-        left = "" if eta is None else f", about {_duration(eta)} left"
-        return (f"{self.desc}: {100 * self.done / self.total:.0f} % ({self.done:g}/{self.total:g} {self.unit}s), "
-                f"{_duration(elapsed)} elapsed{left}")
+        left = "" if eta is None else f", {'at most' if self.upper_bound else 'about'} {_duration(eta)} left"
+        count = (f"{self.unit} {self.done:g} of at most {self.total:g}" if self.upper_bound else
+                 f"{100 * self.done / self.total:.0f} % ({self.done:g}/{self.total:g} {self.unit}s)")
+        return f"{self.desc}: {count}, {_duration(elapsed)} elapsed{left}"
 
     def set(self, done: float) -> None:
         """Set the steps done so far (for loops that count themselves)."""
@@ -76,7 +91,9 @@ class Progress:
             return
         with self._lock:
             self.done = min(self.done + n, self.total)
-            now = time.monotonic()
+            now = self._clock()
+            if self._first is None:
+                self._first = (now, self.done)
             if now - self._start < self.quiet_for_s and self.done < self.total:
                 return
             if self._tty:
