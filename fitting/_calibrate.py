@@ -203,7 +203,7 @@ def invalid_at(problem: Problem, theta, rows: list[SweepRows]) -> list[tuple[int
     reason)."""
     out = []
     for group in problem.groups:
-        obs = hard_observables(problem.with_values(group.params, jnp.asarray(theta)), group.data_sweep(),
+        obs = hard_observables(problem.with_values(group.params, jnp.asarray(theta)), group.model_sweep(dense=False),
                                group.frequencies_hz, group.fusion)  # host arrays
         for i, (lo, hi) in zip(group.files, group.bounds, strict=True):
             r = rows[i]

@@ -5,8 +5,13 @@ differentiable everywhere, including near saturation. Residual = (model - data) 
 amplitude (LSB) and the depth standard deviation (m) of every row that enters the fit.
 
 Compiled once per structure. Files taken with the same camera (equal parameters; they differ only in
-their operating points, which are per-row inputs) form a group whose rows are concatenated into one
-sweep, so one :func:`tofjax.predict` evaluates the whole group; the dense curves the figures draw
+their operating points, which are per-row inputs, and in their background lamp) form a group whose
+rows are concatenated into one sweep, so one :func:`tofjax.predict` evaluates the whole group. A file
+under another lamp than the group's joins it with its illuminance rescaled to the group's lamp: the
+model reads the illuminance only through the in-band photon irradiance, which is linear in it
+(§3.1.2, Eq 3.4), so E lx of lamp L give what E k_L / k_0 lx of the group's lamp give (k: in-band
+photons per lux through the filter). The ratio is fixed by the filter, so files under different lamps
+keep groups of their own when the filter's band is fitted (:data:`BAND_PARAMETERS`). The dense curves the figures draw
 (:data:`DENSE_POINTS` per file) ride along as extra rows of the same call. Bounds, priors, starting
 values, operating points and data are arrays, so a new data set of the same shape, or other bounds,
 reuse the compiled programs; only the parameter names, the groups and the row counts are structure.
@@ -17,6 +22,8 @@ and the covariance, the residual summary and the figures read it at the solution
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import equinox as eqx
 import jax
@@ -120,9 +127,29 @@ class FileGroup(eqx.Module):
     values: tuple[Array, ...]
     masks: tuple[Array, ...]
     frames: Array
+    lamp_scale: Array  # per point of ``sweep``: k_L / k_0 of its file's lamp (1 under the group's lamp)
 
-    def data_sweep(self) -> tj.Sweep:
-        return tj.Sweep.points("distance", *(getattr(self.sweep, name)[: self.n_data] for name in _OPERATING_POINT))
+    def model_sweep(self, dense: bool = True) -> tj.Sweep:
+        """The operating points the model runs at: the files' own, each file's illuminance in lux
+        of the group's lamp (module docstring); the data rows, and with ``dense`` the dense points."""
+        n = self.sweep.samples if dense else self.n_data
+        d, e, t = (getattr(self.sweep, name)[:n] for name in _OPERATING_POINT)
+        return tj.Sweep.points("distance", d, e * self.lamp_scale[:n], t)
+
+
+#: Free parameters that set the filter's band, and with it how the lamps' in-band photons per lux
+#: compare: with one of them fitted, files under different lamps keep groups of their own.
+BAND_PARAMETERS = ("illumination.wavelength_m", "scene.filter_half_width_m")
+
+
+def _photons_per_lux(params: tj.Params, lamp: str) -> float:
+    """In-band background photon irradiance per lux of ``lamp`` through ``params``' filter, 1/(s m^2 lx)."""
+    return float(tj.background_photon_irradiance(lamp, 1.0, params.illumination.wavelength_m,
+                                                 params.scene.filter_half_width_m, params.constants))
+
+
+def _under_lamp(params: tj.Params, lamp: str) -> tj.Params:
+    return eqx.tree_at(lambda p: p.scene, params, dataclasses.replace(params.scene, background=lamp))
 
 
 def _same_camera(a: tj.Params, b: tj.Params) -> bool:
@@ -131,22 +158,39 @@ def _same_camera(a: tj.Params, b: tj.Params) -> bool:
     return tree_a == tree_b and all(np.array_equal(np.asarray(x), np.asarray(y)) for x, y in zip(leaves_a, leaves_b, strict=True))
 
 
-def _groups(rows: list[SweepRows]) -> tuple[FileGroup, ...]:
-    members: list[list[int]] = []
+def _lamp_scale(group_params: tj.Params, params: tj.Params, merge_lamps: bool) -> float | None:
+    """k_L / k_0 for a file with ``params`` in a group with ``group_params`` (1 under the same lamp),
+    or ``None`` where it cannot join: another camera, or another lamp where lamps are not merged or
+    either lamp has no photons in the band (no ratio)."""
+    lamp, own = group_params.scene.background, params.scene.background
+    if lamp == own:
+        return 1.0 if _same_camera(group_params, params) else None
+    if not merge_lamps or not _same_camera(group_params, _under_lamp(params, lamp)):
+        return None
+    k0, k = _photons_per_lux(group_params, lamp), _photons_per_lux(group_params, own)
+    return k / k0 if k0 > 0.0 and k > 0.0 and np.isfinite(k / k0) else None
+
+
+def _groups(rows: list[SweepRows], merge_lamps: bool = True) -> tuple[FileGroup, ...]:
+    members: list[list[tuple[int, float]]] = []  # per group: (file, lamp scale)
     for i, r in enumerate(rows):
         for group in members:
-            first = rows[group[0]]
-            if (first.frequencies_hz, first.fusion) == (r.frequencies_hz, r.fusion) and _same_camera(first.params, r.params):
-                group.append(i)
+            first = rows[group[0][0]]
+            scale = _lamp_scale(first.params, r.params, merge_lamps) if (
+                (first.frequencies_hz, first.fusion) == (r.frequencies_hz, r.fusion)) else None
+            if scale is not None:
+                group.append((i, scale))
                 break
         else:
-            members.append([i])
+            members.append([(i, 1.0)])
     groups = []
-    for group in members:
+    for joined in members:
+        group = [i for i, _ in joined]
         cat = lambda xs: jnp.asarray(np.concatenate([np.asarray(x) for x in xs]))  # noqa: E731
         dense = [dense_sweep(rows[i].sweep) for i in group]
         columns = {name: cat([getattr(rows[i].sweep, name) for i in group] + [d[name] for d in dense])
                    for name in _OPERATING_POINT}
+        scales = [np.full(rows[i].n_rows, k) for i, k in joined] + [np.full(DENSE_POINTS, k) for _, k in joined]
         ends = np.cumsum([rows[i].n_rows for i in group])
         groups.append(FileGroup(
             files=tuple(group), bounds=tuple((int(e - rows[i].n_rows), int(e)) for i, e in zip(group, ends, strict=True)),
@@ -157,7 +201,8 @@ def _groups(rows: list[SweepRows]) -> tuple[FileGroup, ...]:
             sweep=tj.Sweep.points("distance", **columns),
             values=tuple(cat([np.where(rows[i].data[o][1], rows[i].data[o][0], 0.0) for i in group]) for o in OBSERVABLES),
             masks=tuple(cat([rows[i].data[o][1] for i in group]) for o in OBSERVABLES),
-            frames=cat([np.asarray(rows[i].frames, dtype=float) for i in group])))
+            frames=cat([np.asarray(rows[i].frames, dtype=float) for i in group]),
+            lamp_scale=cat(scales)))
     return tuple(groups)
 
 
@@ -239,8 +284,8 @@ class Problem(eqx.Module):
     def predict_group(self, theta: Float[Array, " params"], group: FileGroup, *, dense: bool = True) -> Observables:
         """The model of ``group``'s camera at ``theta`` (smooth mode) on its data rows, and with
         ``dense`` also on its dense points (after the data rows)."""
-        sweep = group.sweep if dense else group.data_sweep()
-        return observables(self.with_values(group.params, theta), sweep, group.frequencies_hz, group.fusion, self.smooth)
+        return observables(self.with_values(group.params, theta), group.model_sweep(dense), group.frequencies_hz,
+                           group.fusion, self.smooth)
 
     def _rows(self, r: Observables, group: FileGroup):
         """Per observable, (model, uncertainty) on the data rows of a group's result."""
@@ -327,7 +372,8 @@ def build_problem(parameters: tuple[FreeParameter, ...], rows: list[SweepRows], 
         prior_mean=numbers(p.prior[0] if p.prior else 0.0 for p in parameters),
         prior_sigma=numbers(p.prior[1] if p.prior else 0.0 for p in parameters),
         relative_error=jnp.asarray(0.0 if relative_error is None else float(relative_error)),
-        groups=_groups(rows), smooth=smooth if smooth is not None else tj.Smooth(),
+        groups=_groups(rows, merge_lamps=not any(p.name in BAND_PARAMETERS for p in parameters)),
+        smooth=smooth if smooth is not None else tj.Smooth(),
     )
 
 

@@ -52,6 +52,32 @@ def test_recovers_the_true_parameters_within_three_sigma(example_fit):
     assert abs(ls.estimate[0] - 0.42) > 2 * ls.sigma[0]
 
 
+def test_files_under_another_lamp_join_the_group_at_the_same_photons(example_fit):
+    """The example's illuminance sweep was taken under a halogen lamp, the other two under sunlight:
+    one group (one model call per step), the halogen rows at the sunlight illuminance that gives the
+    same in-band photons. The group's hard model at the solution equals each file's own (its lamp,
+    its lux) to rounding; with the filter's band fitted, the lamps keep groups of their own."""
+    problem, rows = example_fit.problem, example_fit.rows
+    assert [r.params.scene.background for r in rows] == ["sunlight", "sunlight", "halogen"]
+    (group,) = problem.groups
+    theta = jnp.asarray(example_fit.least_squares.estimate)
+    hard = ft._problem.hard_observables
+    merged = hard(problem.with_values(group.params, theta), group.model_sweep(dense=False), group.frequencies_hz,
+                  group.fusion)
+    for i, (lo, hi) in zip(group.files, group.bounds, strict=True):
+        own = hard(problem.with_values(rows[i].params, theta), rows[i].sweep, group.frequencies_hz, group.fusion)
+        for name in ("amplitude_mean_lsb", "depth_std_m", "pixel_saturated_fraction"):
+            np.testing.assert_allclose(getattr(merged, name)[lo:hi], getattr(own, name), rtol=1e-12, atol=0,
+                                       err_msg=f"{name} of {Path(rows[i].path).name}")
+    scale = np.asarray(group.lamp_scale)[: group.n_data]
+    lo, hi = group.bounds[2]
+    assert np.all(scale[:lo] == 1.0) and np.all(scale[lo:hi] == scale[lo]) and abs(scale[lo] - 1.0) > 0.1
+    band = ft.make_parameters([*NAMES, "illumination.wavelength_m"],
+                              {**dict(zip(NAMES, example_fit.least_squares.estimate, strict=True)),
+                               "illumination.wavelength_m": float(rows[0].params.illumination.wavelength_m)})
+    assert [g.files for g in ft.build_problem(band, rows).groups] == [(0, 1), (2,)]
+
+
 def test_transforms_are_bijective_and_never_clip():
     p = ft.make_parameters(["pixel.demodulation_contrast"], {"pixel.demodulation_contrast": 0.42})[0]
     assert (p.lower, p.upper) == (0.0, 1.0)
