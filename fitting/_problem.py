@@ -114,7 +114,10 @@ class FileGroup(eqx.Module):
     group; ``params`` the camera; ``sweep`` the concatenated operating points, the data rows first
     (``n_data`` of them), then :data:`DENSE_POINTS` dense points per file; ``values`` and ``masks``
     per observable, and ``frames``, over the data rows; ``frequencies_hz`` and ``fusion`` the
-    files' modulation frequencies and how their camera fused them (static).
+    files' modulation frequencies and how their camera fused them (static); ``lamp_scale`` per point
+    of ``sweep``, the ratio that restates a file's illuminance in lux of ``params``' lamp (module
+    docstring; 1 for files under that lamp). ``sweep`` holds the files' own values (the figures' x);
+    :meth:`model_sweep` the rescaled ones.
     """
 
     files: tuple[int, ...] = eqx.field(static=True)
