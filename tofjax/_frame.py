@@ -30,9 +30,9 @@ from jaxtyping import Array, Float, PRNGKeyArray
 from . import _jit
 from ._analytic import analytic, moments
 from ._chain import Chain, build_chain
-from ._frames import draw_frames, equal_parts, point_constants
+from ._frames import draw_frames, drive_blocks, equal_parts, point_constants
 from ._mixer import TapCharges, scene_photon_irradiance
-from ._montecarlo import Prepared, assemble, check_counts, frames_step, run_blocks
+from ._montecarlo import Prepared, _traced, assemble, assemble_jit, check_counts, frames_step, run_blocks
 from ._noise import dark_electrons
 from ._optics import photon_energy_j, quantum_efficiency
 from ._params import Params, _check, _float, _static
@@ -341,6 +341,11 @@ class PreparedFrame(eqx.Module):
     def render(self, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0, progress: bool = False) -> FrameResult:
         """``frames`` Monte Carlo frames (:func:`render_frame`, which is ``prepare_frame(...).render(...)``)."""
         check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases)
+        if progress and not _traced((self, key)):  # chunk by chunk from the host (tofjax.simulate's progress)
+            step = frames_step(self.chain, _key_words_jit(key))
+            sums, kept = drive_blocks(step, self.prepared.consts, math.prod(self.shape), frames, keep_frames,
+                                      self.chain.n_phases, FRAME_CHUNK_ELEMENTS)
+            return self._wrap(assemble_jit(self.chain, self.sweep, self.prepared, sums, kept, frames))
         return self._wrap(_render_prepared(self, key, frames, keep_frames, progress))
 
     def predict(self) -> FrameResult:
@@ -377,6 +382,7 @@ class NoisyFrames(eqx.Module):
 # fuses a producer into each of its consumers and evaluates it several times (one frame of 224 x 172
 # in one program: 32 ms). Under an outer jit they are traced into one program as usual.
 _setup_jit = _jit.jit(_setup)
+_key_words_jit = _jit.jit(key_words)
 
 #: Phase images per chunk of a frame's Monte Carlo (``run_blocks``' ``elements``): a whole 640 x 480
 #: frame of 4 phase images (1.2 M) is one block. On a CPU, XLA runs the loop over several blocks

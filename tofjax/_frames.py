@@ -33,13 +33,13 @@ import jax.numpy as jnp
 from jax import lax
 from jaxtyping import Array
 
-from . import _depth
+from . import _depth, _jit
 from ._chain import Chain
 from ._mixer import TapCharges
 from ._noise import AFTER_LIMIT, BEFORE_LIMIT
 from ._random import MAX_ABS_NORMAL, normals
 from ._reduce import sum_by_slices
-from .progress import chunk_done
+from .progress import chunk_done, tick
 
 #: Phase images drawn per chunk (about 4 MB per float64 array of the chunk).
 CHUNK_ELEMENTS = 1 << 19
@@ -246,16 +246,7 @@ def run_blocks(step: Callable, consts, n_points: int, frames: int, keep: int, ph
     ``progress``: after every chunk, a host callback counts it (:func:`tofjax.progress.chunk_done`;
     about 0.1 ms against the chunk's milliseconds).
     """
-    block, chunk = chunking(n_points, phases, max(frames - keep, 1), elements, block_points)
-    n_blocks = -(-n_points // block)
-    padded = n_blocks * block
-
-    def split(x):  # (..., points) -> (blocks, ..., block), padding with the last point
-        pad = jnp.concatenate([x, jnp.repeat(x[..., -1:], padded - n_points, axis=-1)], axis=-1)
-        return jnp.moveaxis(pad.reshape(x.shape[:-1] + (n_blocks, block)), -2, 0)
-
-    rest = frames - keep
-    n_chunks = -(-rest // chunk) if rest > 0 else 0
+    block, chunk, n_blocks, n_chunks = _plan(n_points, frames, keep, phases, elements, block_points)
 
     def one_block(cb):
         sums = record = None
@@ -286,20 +277,114 @@ def run_blocks(step: Callable, consts, n_points: int, frames: int, keep: int, ph
             more, _ = lax.scan(jax.checkpoint(body), zeros, jnp.arange(n_chunks))
         return (more if sums is None else jax.tree_util.tree_map(jnp.add, sums, more)), record
 
-    blocks = jax.tree_util.tree_map(split, consts)
+    blocks = _split(consts, n_points, n_blocks, block)
     if n_blocks == 1:
         sums, record = jax.tree_util.tree_map(lambda x: x[None], one_block(jax.tree_util.tree_map(lambda x: x[0], blocks)))
     else:
         sums, record = lax.map(one_block, blocks)
+    return _join(sums, record, n_points)
 
-    def join(x):  # (blocks, ..., block) -> (..., points)
-        return jnp.moveaxis(x, 0, -2).reshape(x.shape[1:-1] + (padded,))[..., :n_points]
 
-    def join_record(x):  # (blocks, block, ...) -> (points, ...)
-        return x.reshape((padded,) + x.shape[2:])[:n_points]
+def _plan(n_points: int, frames: int, keep: int, phases: int, elements: int, block_points: int):
+    """(points per block, frames per chunk, blocks, chunks after the kept frames) of a run."""
+    block, chunk = chunking(n_points, phases, max(frames - keep, 1), elements, block_points)
+    rest = frames - keep
+    return block, chunk, -(-n_points // block), (-(-rest // chunk) if rest > 0 else 0)
+
+
+def _split(consts, n_points: int, n_blocks: int, block: int):
+    """Leaves ``(..., points)`` -> ``(blocks, ..., block)``, the last block padded with the last point."""
+    padded = n_blocks * block
+
+    def split(x):
+        pad = jnp.concatenate([x, jnp.repeat(x[..., -1:], padded - n_points, axis=-1)], axis=-1)
+        return jnp.moveaxis(pad.reshape(x.shape[:-1] + (n_blocks, block)), -2, 0)
+
+    return jax.tree_util.tree_map(split, consts)
+
+
+def _join(sums, record, n_points: int):
+    """Blocks' sums ``(blocks, ..., block)`` -> ``(..., points)`` and records ``(blocks, block, ...)``
+    -> ``(points, ...)``, the padding cut."""
+
+    def join(x):
+        return jnp.moveaxis(x, 0, -2).reshape(x.shape[1:-1] + (-1,))[..., :n_points]
+
+    def join_record(x):
+        return x.reshape((-1,) + x.shape[2:])[:n_points]
 
     return (jax.tree_util.tree_map(join, sums),
             None if record is None else jax.tree_util.tree_map(join_record, record))
+
+
+def drive_blocks(step: eqx.Module, consts, n_points: int, frames: int, keep: int, phases: int,
+                 elements: int = CHUNK_ELEMENTS, block_points: int = BLOCK_POINTS):
+    """:func:`run_blocks` with ``progress``, driven from the host: the same blocks and chunks, summed
+    in the same order (the same numbers, up to XLA rounding a reduction differently in another
+    program: 2e-16 relative at the test suite's XLA settings), one compiled call per chunk and a
+    :func:`tofjax.progress.tick` after each, as many as :func:`run_blocks` reports.
+
+    Why: a program with a host callback in it is never written to JAX's persistent compilation cache,
+    so with the callbacks of :func:`run_blocks` every process that reported progress compiled its
+    Monte Carlo anew (``tofjax simulate`` on the defaults: 5 of its 7.4 s, every run). These
+    programs have none, and are compiled once per machine. ``step`` is a pytree
+    (:class:`tofjax._montecarlo.FramesStep`) so that the programs take it as an argument; under a
+    transformation (no concrete values to loop over) the callers use :func:`run_blocks`.
+    """
+    block, chunk, n_blocks, n_chunks = _plan(n_points, frames, keep, phases, elements, block_points)
+    total = n_blocks * n_chunks if n_chunks > 1 else n_blocks
+    blocks = _split_jit(consts, n_points, n_blocks, block)
+    all_sums, all_records = [], []
+    for b in range(n_blocks):
+        cb = _block_jit(blocks, jnp.int32(b))
+        sums = record = None
+        if keep > 0:
+            sums, record = _record_jit(step, cb, keep)
+        more = None
+        for i in range(n_chunks):
+            more = _chunk_jit(step, cb, more, jnp.asarray(keep + i * chunk), chunk, frames)  # int64, as the scan's
+            if n_chunks > 1 or i == 0:
+                jax.block_until_ready(more)  # the tick counts a chunk done, not dispatched
+                tick(total)
+        if more is not None:
+            sums = more if sums is None else _add_jit(sums, more)
+        all_sums.append(sums)
+        all_records.append(record)
+    return _stack_join_jit(all_sums, None if keep == 0 else all_records, n_points)
+
+
+def _block_of(blocks, b):
+    return jax.tree_util.tree_map(lambda x: x[b], blocks)
+
+
+def _record_chunk(step, cb, keep):
+    return step(cb, jnp.uint32(0), keep, jnp.ones((keep,), dtype=bool), True)
+
+
+def _frames_chunk(step, cb, total, first, chunk, frames):
+    """Frames first .. first + chunk - 1 of a block (those past ``frames`` not counted), added to
+    ``total`` (``None``: the first chunk), as :func:`run_blocks`' loop adds them."""
+    counted = (first + jnp.arange(chunk)) < frames
+    sums = step(cb, first.astype(jnp.uint32), chunk, counted, False)[0]
+    return sums if total is None else jax.tree_util.tree_map(jnp.add, total, sums)
+
+
+def _add(a, b):
+    return jax.tree_util.tree_map(jnp.add, a, b)
+
+
+def _stack_join(sums, records, n_points):
+    stack = lambda xs: jax.tree_util.tree_map(lambda *x: jnp.stack(x), *xs)  # noqa: E731
+    return _join(stack(sums), None if records is None else stack(records), n_points)
+
+
+# Compiled once each (tofjax._jit: the step's arrays traced, its choices static).
+_split_jit = _jit.jit(_split)
+_block_jit = _jit.jit(_block_of)
+_record_jit = _jit.jit(_record_chunk)
+_chunk_jit = _jit.jit(_frames_chunk)
+_add_jit = _jit.jit(_add)
+_stack_join_jit = _jit.jit(_stack_join)
 
 
 def frame_statistics(c: PointConstants, sums: Sums, frames: int):

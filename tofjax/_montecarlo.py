@@ -13,7 +13,8 @@ from . import _jit
 from ._analytic import full_well_fraction, unwrap_if_sweep
 from ._chain import Chain, build_chain
 from ._depth import unwrap_along_sweep
-from ._frames import BLOCK_POINTS, CHUNK_ELEMENTS, PointConstants, Sums, draw_frames, frame_statistics, point_constants, reduce_frames, run_blocks
+from ._frames import (BLOCK_POINTS, CHUNK_ELEMENTS, PointConstants, Sums, draw_frames, drive_blocks, frame_statistics,
+                      point_constants, reduce_frames, run_blocks)
 from ._mixer import TapCharges
 from ._params import Params
 from ._random import key_words
@@ -80,9 +81,10 @@ def prepare(chain: Chain, sweep: Sweep, dark_slopes_v_per_s=None) -> Prepared:
     return Prepared(charges, point_constants(chain, flat, jnp.arange(n_points, dtype=jnp.uint32)))
 
 
-def frames_step(chain: Chain, words, stream=0):
+class FramesStep(eqx.Module):
     """The chunk step of :func:`tofjax._frames.run_blocks` for one chain: sums, and with ``record``
-    the frames as (codes ``(points, frames, phases)``, phase in [0, 2 pi), amplitude, valid).
+    the frames as (codes ``(points, frames, phases)``, phase in [0, 2 pi), amplitude, valid). A
+    pytree, so that the chunk programs of :func:`tofjax._frames.drive_blocks` take it as an argument.
 
     A chunk of fewer frames than points (a camera frame's pixels) whose frames are not kept is drawn
     frames first, so that the points are the arrays' minor axis: with a minor axis of a few frames
@@ -90,16 +92,23 @@ def frames_step(chain: Chain, words, stream=0):
     frames stay points first, the layout they are returned in: transposed from frames first, 32 kept
     frames of 224 x 172 took 162 ms instead of 120."""
 
-    def step(c, first, n, counted, record):
+    chain: Chain
+    words: tuple[Array, Array]
+    stream: int = eqx.field(static=True, default=0)
+
+    def __call__(self, c, first, n, counted, record):
         ff = n < c.index.shape[0] and not record
-        frames = draw_frames(chain, c, words, first, n, stream, frames_first=ff)
+        frames = draw_frames(self.chain, c, self.words, first, n, self.stream, frames_first=ff)
         sums, valid = reduce_frames(c, frames, counted[:, None] if ff else counted[None, :], frames_first=ff)
         if not record:
             return sums, None
         phase = jnp.mod(frames.phase, 2.0 * jnp.pi)
         return sums, (jnp.moveaxis(frames.codes, 0, -1), phase, frames.amplitude, valid)
 
-    return step
+
+def frames_step(chain: Chain, words, stream: int = 0) -> FramesStep:
+    """The chunk step of one chain (:class:`FramesStep`)."""
+    return FramesStep(chain, words, stream)
 
 
 def assemble(chain: Chain, sweep: Sweep, prepared: Prepared, sums: Sums, kept, iterations: int) -> Result:
@@ -152,7 +161,6 @@ def monte_carlo(chain: Chain, sweep: Sweep, key: PRNGKeyArray, iterations: int, 
     return assemble(chain, sweep, prepared, sums, kept, iterations)
 
 
-@_jit.jit
 def simulate(
     params: Params,
     sweep: Sweep,
@@ -183,14 +191,43 @@ def simulate(
       pixel population (mean, sigma of ``pixel.dark_slope_*``) instead of taking the mean pixel.
     - ``keep_frames``: how many frames of each point to return whole (``codes``, ``phase_rad``,
       ``depth_m``, ...; static, 0 .. ``iterations``); the statistics always use every frame.
-    - ``progress``: report every chunk of frames to :mod:`tofjax.progress` (static; a host callback
-      per chunk, so a separate program).
+    - ``progress``: report every chunk of frames to :mod:`tofjax.progress`: the chunks are run
+      from the host, one compiled call each (the same numbers to rounding; programs that JAX's persistent
+      compilation cache keeps), or under a transformation by a host callback per chunk in the
+      program (which that cache never keeps).
 
     **Returns:** a :class:`tofjax.Result` with ``method = "mc"``.
     """
+    if progress and not _traced((params, sweep, key, smooth)):
+        # From the host, chunk by chunk: programs without host callbacks (tofjax._frames.drive_blocks).
+        chain, prepared, step = _setup_jit(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames)
+        sums, kept = drive_blocks(step, prepared.consts, sweep.samples, iterations, keep_frames, chain.n_phases)
+        return assemble_jit(chain, sweep, prepared, sums, kept, iterations)
+    return _simulate(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames, progress)
+
+
+def _traced(tree) -> bool:
+    """Whether any leaf of ``tree`` is a tracer (a call under ``jit``, ``vmap`` or ``grad``)."""
+    return any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(tree))
+
+
+def _setup(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames):
+    """The chain, the expected charges and frames' constants, and the chunk step of a run."""
     check_inputs(params, sweep)
     check_counts(iterations, keep_frames, sweep.samples, params.pixel.n_phases)
     pattern_key, key = jr.split(key)
     slopes = pixel_dark_slopes(params, pattern_key) if fixed_pattern else None
-    return monte_carlo(build_chain(params, smooth, sweep.samples), sweep, key, iterations, keep_frames, slopes,
-                       progress=progress)
+    chain = build_chain(params, smooth, sweep.samples)
+    return chain, prepare(chain, sweep, slopes), frames_step(chain, key_words(key))
+
+
+@_jit.jit
+def _simulate(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames, progress) -> Result:
+    chain, prepared, step = _setup(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames)
+    sums, kept = run_blocks(step, prepared.consts, sweep.samples, iterations, keep_frames, chain.n_phases,
+                            progress=progress)
+    return assemble(chain, sweep, prepared, sums, kept, iterations)
+
+
+_setup_jit = _jit.jit(_setup)
+assemble_jit = _jit.jit(assemble)

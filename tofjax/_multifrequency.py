@@ -44,9 +44,9 @@ from jaxtyping import Array, Bool, Float, PRNGKeyArray
 
 from . import _jit
 from ._analytic import analytic, moments
-from ._chain import build_chain
-from ._frames import draw_frames, reduce_frames, run_blocks, wrap
-from ._montecarlo import assemble, check_counts, prepare
+from ._chain import Chain, build_chain
+from ._frames import draw_frames, drive_blocks, reduce_frames, run_blocks, wrap
+from ._montecarlo import _traced, assemble, check_counts, prepare
 from ._constants import SPEED_OF_LIGHT_M_PER_S
 from ._params import Params
 from ._random import key_words
@@ -213,13 +213,55 @@ def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, ite
     check_counts(iterations, keep_frames, sweep.samples * (freqs.size + 1), params.pixel.n_phases)
     c = float(params.constants.speed_of_light_m_per_s)
     ranges = tuple(float(x) for x in c / (2.0 * freqs))
-    return _simulate(params, sweep, key, iterations, jnp.asarray(freqs), keep_frames, float(extended_range_m(freqs, c)),
-                     ranges, progress, fusion)
+    args = (params, sweep, key, iterations, jnp.asarray(freqs), keep_frames, float(extended_range_m(freqs, c)), ranges)
+    if progress and not _traced((params, sweep, key)):
+        # From the host, chunk by chunk: programs without host callbacks (tofjax._frames.drive_blocks).
+        chains, prepared, step, consts = _setup_jit(*args, fusion)
+        sums, kept = drive_blocks(step, consts, sweep.samples, iterations, keep_frames, chains.n_phases)
+        return _finish_jit(*args, fusion, chains, prepared, consts[1], sums, kept)
+    return _simulate(*args, progress, fusion)
 
 
-@_jit.jit
-def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges, progress=False,
-              fusion="inverse_variance") -> MultiFrequencyResult:
+class _Step(eqx.Module):
+    """The chunk step of all frequencies' chains at once (:func:`tofjax._frames.run_blocks`): the
+    frames of every frequency, their statistics, and those of the combined, unwrapped distance. A
+    pytree, so that the chunk programs of :func:`tofjax._frames.drive_blocks` take it as an argument."""
+
+    chains: Chain  # one per frequency (a leading axis)
+    words: tuple[Array, Array]
+    streams: Array
+    ranges: tuple[float, ...] = eqx.field(static=True)
+    extended: float = eqx.field(static=True)
+
+    def __call__(self, cb, first, n, counted, record):
+        ranges, extended, words = np.asarray(self.ranges), self.extended, self.words
+        consts, ref, true, w = cb
+        linear = jnp.all(consts.linear, axis=0)  # a point's path, the same at every frequency (outside the vmap)
+        frames = jax.vmap(lambda ch, c, st: draw_frames(ch, c, words, first, n, st, linear))(self.chains, consts,
+                                                                                             self.streams)
+        per, valid_f = jax.vmap(lambda c, f: reduce_frames(c, f, counted[None, :]))(consts, frames)
+        valid = jnp.all(valid_f, axis=0)
+        depth = unwrap_frequencies(jnp.where(valid[None], jnp.mod(frames.phase, 2.0 * jnp.pi), 0.0), ranges, extended,
+                                   w[..., None])
+        error = depth - true[:, None]
+        error = error - extended * jnp.round(error / extended)
+        use = valid & counted[None, :]
+        wrong = use & (jnp.abs(error) > 0.5 * float(np.min(ranges)))
+        good = use & ~wrong
+        dev = jnp.where(good, wrap(2.0 * jnp.pi * (depth - ref[:, None]) / extended), 0.0)
+        count = lambda x: jnp.sum(x, axis=-1).astype(float)  # noqa: E731
+        combined = _Combined(count(good), count(wrong), count(use), jnp.sum(dev, -1), jnp.sum(dev * dev, -1))
+        out = None
+        if record:
+            kept_f = (jnp.moveaxis(frames.codes, 1, -1), jnp.mod(frames.phase, 2.0 * jnp.pi), frames.amplitude, valid_f)
+            kept_f = jax.tree_util.tree_map(lambda x: jnp.moveaxis(x, 0, 1), kept_f)  # points first
+            out = (kept_f, depth, valid, wrong)
+        return (per, combined), out
+
+
+def _setup(params, sweep, key, iterations, freqs, keep, extended, ranges, fusion):
+    """Every frequency's chain and frames' constants, the chunk step, and the blocks' inputs (the
+    constants, the noise-free unwrapped distance, the true distance, the fusion weights)."""
     ranges = np.asarray(ranges)  # concrete: the number of unwrapping candidates depends on them
     n_freq = len(ranges)
 
@@ -238,36 +280,17 @@ def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges, pro
     truth = jnp.mod(d.reshape(-1), extended)
     # Centre of the combined statistics: the noise-free frames' unwrapped distance.
     reference = unwrap_frequencies(jnp.mod(prepared.consts.ref_phase, 2.0 * jnp.pi), ranges, extended, weights)
-    streams = jnp.arange(n_freq, dtype=jnp.uint32)
-    min_range = float(np.min(ranges))
+    step = _Step(chains, words, jnp.arange(n_freq, dtype=jnp.uint32), tuple(float(r) for r in ranges), extended)
+    return chains, prepared, step, (prepared.consts, reference, truth, weights)
 
-    def step(cb, first, n, counted, record):
-        consts, ref, true, w = cb
-        linear = jnp.all(consts.linear, axis=0)  # a point's path, the same at every frequency (outside the vmap)
-        frames = jax.vmap(lambda ch, c, st: draw_frames(ch, c, words, first, n, st, linear))(chains, consts, streams)
-        per, valid_f = jax.vmap(lambda c, f: reduce_frames(c, f, counted[None, :]))(consts, frames)
-        valid = jnp.all(valid_f, axis=0)
-        depth = unwrap_frequencies(jnp.where(valid[None], jnp.mod(frames.phase, 2.0 * jnp.pi), 0.0), ranges, extended,
-                                   w[..., None])
-        error = depth - true[:, None]
-        error = error - extended * jnp.round(error / extended)
-        use = valid & counted[None, :]
-        wrong = use & (jnp.abs(error) > 0.5 * min_range)
-        good = use & ~wrong
-        dev = jnp.where(good, wrap(2.0 * jnp.pi * (depth - ref[:, None]) / extended), 0.0)
-        count = lambda x: jnp.sum(x, axis=-1).astype(float)  # noqa: E731
-        combined = _Combined(count(good), count(wrong), count(use), jnp.sum(dev, -1), jnp.sum(dev * dev, -1))
-        out = None
-        if record:
-            kept_f = (jnp.moveaxis(frames.codes, 1, -1), jnp.mod(frames.phase, 2.0 * jnp.pi), frames.amplitude, valid_f)
-            kept_f = jax.tree_util.tree_map(lambda x: jnp.moveaxis(x, 0, 1), kept_f)  # points first
-            out = (kept_f, depth, valid, wrong)
-        return (per, combined), out
 
-    (per_sums, combined), kept = run_blocks(step, (prepared.consts, reference, truth, weights), sweep.samples, iterations,
-                                            keep, chains.n_phases, progress=progress)
+def _finish(params, sweep, key, iterations, freqs, keep, extended, ranges, fusion, chains, prepared, reference, sums,
+            kept) -> MultiFrequencyResult:
+    """The result from the blocks' sums and kept frames."""
+    per_sums, combined = sums
     kept_f = None if kept is None else jax.tree_util.tree_map(lambda x: jnp.moveaxis(x, 1, 0), kept[0])
     per = jax.vmap(lambda ch, p, s, k: assemble(ch, sweep, p, s, k, iterations))(chains, prepared, per_sums, kept_f)
+    d = sweep.operating_points(params.scene)[0]
     shape = d.shape
     points = lambda x: x.reshape(shape + x.shape[1:])  # noqa: E731
     n = combined.good
@@ -287,3 +310,16 @@ def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges, pro
                                                jnp.nan)),
         valid_fraction=points(combined.valid / float(iterations)), fusion=fusion,
     )
+
+
+@_jit.jit
+def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges, progress=False,
+              fusion="inverse_variance") -> MultiFrequencyResult:
+    args = (params, sweep, key, iterations, freqs, keep, extended, ranges, fusion)
+    chains, prepared, step, consts = _setup(*args)
+    sums, kept = run_blocks(step, consts, sweep.samples, iterations, keep, chains.n_phases, progress=progress)
+    return _finish(*args, chains, prepared, consts[1], sums, kept)
+
+
+_setup_jit = _jit.jit(_setup)
+_finish_jit = _jit.jit(_finish)

@@ -118,9 +118,10 @@ _current: Progress | None = None
 
 
 class reporting:  # noqa: N801 - used as a context manager, like a function
-    """Make ``progress`` the reporter of compiled loops' host callbacks (:func:`chunk_done`) while
-    the ``with`` block runs: ``with reporting(Progress(1, "simulating", unit="chunk")): simulate(...,
-    progress=True)``. The callbacks set its total."""
+    """Make ``progress`` the reporter of :func:`tick` while the ``with`` block runs: ``with
+    reporting(Progress(1, "simulating", unit="chunk")): simulate(..., progress=True)``. The Monte
+    Carlo ticks once per chunk of frames, from the host loop that runs the chunks (or from a host
+    callback, :func:`chunk_done`, where the chunks run in one program); each tick sets the total."""
 
     def __init__(self, progress: Progress):
         self.progress = progress
