@@ -341,11 +341,11 @@ def drive_blocks(step: eqx.Module, consts, n_points: int, frames: int, keep: int
         if keep > 0:
             sums, record = _record_jit(step, cb, keep)
         more = None
-        for i in range(n_chunks):
-            more = _chunk_jit(step, cb, more, jnp.asarray(keep + i * chunk), chunk, frames)  # int64, as the scan's
-            if n_chunks > 1 or i == 0:
-                jax.block_until_ready(more)  # the tick counts a chunk done, not dispatched
-                tick(total)
+        for i in range(n_chunks):  # one program for every chunk; added as the scan adds them
+            sums_i = _chunk_jit(step, cb, jnp.asarray(keep + i * chunk), chunk, frames)  # int64, as the scan's
+            more = sums_i if more is None else _add_jit(more, sums_i)
+            jax.block_until_ready(more)  # the tick counts a chunk done, not dispatched
+            tick(total)
         if more is not None:
             sums = more if sums is None else _add_jit(sums, more)
         all_sums.append(sums)
@@ -361,12 +361,10 @@ def _record_chunk(step, cb, keep):
     return step(cb, jnp.uint32(0), keep, jnp.ones((keep,), dtype=bool), True)
 
 
-def _frames_chunk(step, cb, total, first, chunk, frames):
-    """Frames first .. first + chunk - 1 of a block (those past ``frames`` not counted), added to
-    ``total`` (``None``: the first chunk), as :func:`run_blocks`' loop adds them."""
+def _frames_chunk(step, cb, first, chunk, frames):
+    """The sums of frames first .. first + chunk - 1 of a block (those past ``frames`` not counted)."""
     counted = (first + jnp.arange(chunk)) < frames
-    sums = step(cb, first.astype(jnp.uint32), chunk, counted, False)[0]
-    return sums if total is None else jax.tree_util.tree_map(jnp.add, total, sums)
+    return step(cb, first.astype(jnp.uint32), chunk, counted, False)[0]
 
 
 def _add(a, b):
