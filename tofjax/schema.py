@@ -12,9 +12,27 @@ explorer share, and the dotted-name access to parameter leaves.
   :func:`get_leaf` and :func:`set_leaves` (by dotted name).
 """
 
-from ._config import read_toml, render_toml
-from ._leaves import float_leaf_names, get_leaf, set_leaves
+from typing import TYPE_CHECKING
+
 from ._schema import KEY_BY_DOTTED, KEYS, SECTIONS, SWEEPS, ConfigError, Key, coerce, in_range, keys_of, suggest
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from ._config import read_toml, render_toml
+    from ._leaves import float_leaf_names, get_leaf, set_leaves
+
+# The keys and their checks need no JAX; the TOML and leaf helpers import it (through the parameter
+# classes), on first use, so that `tofjax --help` and `tofjax record`'s option table stay light.
+_LAZY = {"read_toml": "._config", "render_toml": "._config", "float_leaf_names": "._leaves", "get_leaf": "._leaves",
+         "set_leaves": "._leaves"}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name], __name__.rpartition(".")[0]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = ["KEYS", "KEY_BY_DOTTED", "SECTIONS", "SWEEPS", "ConfigError", "Key", "coerce", "float_leaf_names",
            "get_leaf", "in_range", "keys_of", "read_toml", "render_toml", "set_leaves", "suggest"]
