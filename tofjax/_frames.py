@@ -332,7 +332,7 @@ def drive_blocks(step: eqx.Module, consts, n_points: int, frames: int, keep: int
     transformation (no concrete values to loop over) the callers use :func:`run_blocks`.
     """
     block, chunk, n_blocks, n_chunks = _plan(n_points, frames, keep, phases, elements, block_points)
-    total = n_blocks * n_chunks if n_chunks > 1 else n_blocks
+    total = n_blocks * n_chunks  # as run_blocks counts: per chunk, or per block when each has one chunk
     blocks = _split_jit(consts, n_points, n_blocks, block)
     all_sums, all_records = [], []
     for b in range(n_blocks):

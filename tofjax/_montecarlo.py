@@ -198,9 +198,11 @@ def simulate(
 
     **Returns:** a :class:`tofjax.Result` with ``method = "mc"``.
     """
+    check_inputs(params, sweep)
+    check_counts(iterations, keep_frames, sweep.samples, params.pixel.n_phases)
     if progress and not _traced((params, sweep, key, smooth)):
         # From the host, chunk by chunk: programs without host callbacks (tofjax._frames.drive_blocks).
-        chain, prepared, step = _setup_jit(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames)
+        chain, prepared, step = _setup_jit(params, sweep, key, smooth, fixed_pattern)
         sums, kept = drive_blocks(step, prepared.consts, sweep.samples, iterations, keep_frames, chain.n_phases)
         return assemble_jit(chain, sweep, prepared, sums, kept, iterations)
     return _simulate(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames, progress)
@@ -211,22 +213,24 @@ def _traced(tree) -> bool:
     return any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(tree))
 
 
-def _setup(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames):
-    """The chain, the expected charges and frames' constants, and the chunk step of a run."""
-    check_inputs(params, sweep)
-    check_counts(iterations, keep_frames, sweep.samples, params.pixel.n_phases)
+def _run_inputs(params, sweep, key, smooth, fixed_pattern):
+    """The run's chain, its frames' key and the taps' dark slopes (``None``: the mean pixel)."""
     pattern_key, key = jr.split(key)
     slopes = pixel_dark_slopes(params, pattern_key) if fixed_pattern else None
-    chain = build_chain(params, smooth, sweep.samples)
+    return build_chain(params, smooth, sweep.samples), key, slopes
+
+
+def _setup(params, sweep, key, smooth, fixed_pattern):
+    """What :func:`monte_carlo` runs its chunks with: the chain, the expected charges and frames'
+    constants, and the chunk step."""
+    chain, key, slopes = _run_inputs(params, sweep, key, smooth, fixed_pattern)
     return chain, prepare(chain, sweep, slopes), frames_step(chain, key_words(key))
 
 
 @_jit.jit
 def _simulate(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames, progress) -> Result:
-    chain, prepared, step = _setup(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames)
-    sums, kept = run_blocks(step, prepared.consts, sweep.samples, iterations, keep_frames, chain.n_phases,
-                            progress=progress)
-    return assemble(chain, sweep, prepared, sums, kept, iterations)
+    chain, key, slopes = _run_inputs(params, sweep, key, smooth, fixed_pattern)
+    return monte_carlo(chain, sweep, key, iterations, keep_frames, slopes, progress=progress)
 
 
 _setup_jit = _jit.jit(_setup)

@@ -213,13 +213,13 @@ def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, ite
     check_counts(iterations, keep_frames, sweep.samples * (freqs.size + 1), params.pixel.n_phases)
     c = float(params.constants.speed_of_light_m_per_s)
     ranges = tuple(float(x) for x in c / (2.0 * freqs))
-    args = (params, sweep, key, iterations, jnp.asarray(freqs), keep_frames, float(extended_range_m(freqs, c)), ranges)
+    freqs, extended = jnp.asarray(freqs), float(extended_range_m(freqs, c))
     if progress and not _traced((params, sweep, key)):
         # From the host, chunk by chunk: programs without host callbacks (tofjax._frames.drive_blocks).
-        chains, prepared, step, consts = _setup_jit(*args, fusion)
+        chains, prepared, step, consts = _setup_jit(params, sweep, key, freqs, extended, ranges, fusion)
         sums, kept = drive_blocks(step, consts, sweep.samples, iterations, keep_frames, chains.n_phases)
-        return _finish_jit(*args, fusion, chains, prepared, consts[1], sums, kept)
-    return _simulate(*args, progress, fusion)
+        return _finish_jit(params, sweep, iterations, freqs, extended, fusion, chains, prepared, consts[1], sums, kept)
+    return _simulate(params, sweep, key, iterations, freqs, keep_frames, extended, ranges, progress, fusion)
 
 
 class _Step(eqx.Module):
@@ -259,7 +259,7 @@ class _Step(eqx.Module):
         return (per, combined), out
 
 
-def _setup(params, sweep, key, iterations, freqs, keep, extended, ranges, fusion):
+def _setup(params, sweep, key, freqs, extended, ranges, fusion):
     """Every frequency's chain and frames' constants, the chunk step, and the blocks' inputs (the
     constants, the noise-free unwrapped distance, the true distance, the fusion weights)."""
     ranges = np.asarray(ranges)  # concrete: the number of unwrapping candidates depends on them
@@ -284,7 +284,7 @@ def _setup(params, sweep, key, iterations, freqs, keep, extended, ranges, fusion
     return chains, prepared, step, (prepared.consts, reference, truth, weights)
 
 
-def _finish(params, sweep, key, iterations, freqs, keep, extended, ranges, fusion, chains, prepared, reference, sums,
+def _finish(params, sweep, iterations, freqs, extended, fusion, chains, prepared, reference, sums,
             kept) -> MultiFrequencyResult:
     """The result from the blocks' sums and kept frames."""
     per_sums, combined = sums
@@ -315,10 +315,9 @@ def _finish(params, sweep, key, iterations, freqs, keep, extended, ranges, fusio
 @_jit.jit
 def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges, progress=False,
               fusion="inverse_variance") -> MultiFrequencyResult:
-    args = (params, sweep, key, iterations, freqs, keep, extended, ranges, fusion)
-    chains, prepared, step, consts = _setup(*args)
+    chains, prepared, step, consts = _setup(params, sweep, key, freqs, extended, ranges, fusion)
     sums, kept = run_blocks(step, consts, sweep.samples, iterations, keep, chains.n_phases, progress=progress)
-    return _finish(*args, chains, prepared, consts[1], sums, kept)
+    return _finish(params, sweep, iterations, freqs, extended, fusion, chains, prepared, consts[1], sums, kept)
 
 
 _setup_jit = _jit.jit(_setup)
