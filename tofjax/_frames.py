@@ -251,13 +251,12 @@ def run_blocks(step: Callable, consts, n_points: int, frames: int, keep: int, ph
     def one_block(cb):
         sums = record = None
         if keep > 0:
-            sums, record = step(cb, jnp.uint32(0), keep, jnp.ones((keep,), dtype=bool), True)
+            sums, record = _record_chunk(step, cb, keep)
         if n_chunks == 0:
             return sums, record
 
-        def chunk_sums(first):  # frames first .. first + chunk - 1; those past `frames` not counted
-            counted = (first + jnp.arange(chunk)) < frames
-            return step(cb, jnp.asarray(first).astype(jnp.uint32), chunk, counted, False)[0]
+        def chunk_sums(first):
+            return _frames_chunk(step, cb, jnp.asarray(first), chunk, frames)
 
         if n_chunks == 1:  # no loop: a smaller program
             more = chunk_sums(keep)
@@ -266,7 +265,7 @@ def run_blocks(step: Callable, consts, n_points: int, frames: int, keep: int, ph
                                    jax.tree_util.tree_leaves(more)[0].ravel()[0])
         else:
             def body(total, i):
-                total = jax.tree_util.tree_map(jnp.add, total, chunk_sums(keep + i * chunk))
+                total = _add(total, chunk_sums(keep + i * chunk))
                 if progress:  # after this chunk's sums exist: depend on one of them
                     jax.debug.callback(functools.partial(chunk_done, total=n_blocks * n_chunks),
                                        jax.tree_util.tree_leaves(total)[0].ravel()[0])
@@ -275,7 +274,7 @@ def run_blocks(step: Callable, consts, n_points: int, frames: int, keep: int, ph
             shapes = jax.eval_shape(chunk_sums, keep)
             zeros = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
             more, _ = lax.scan(jax.checkpoint(body), zeros, jnp.arange(n_chunks))
-        return (more if sums is None else jax.tree_util.tree_map(jnp.add, sums, more)), record
+        return (more if sums is None else _add(sums, more)), record
 
     blocks = _split(consts, n_points, n_blocks, block)
     if n_blocks == 1:
@@ -358,6 +357,7 @@ def _block_of(blocks, b):
 
 
 def _record_chunk(step, cb, keep):
+    """The sums and records of a block's first ``keep`` frames (those returned whole)."""
     return step(cb, jnp.uint32(0), keep, jnp.ones((keep,), dtype=bool), True)
 
 
