@@ -53,7 +53,9 @@ def test_progress_runs_the_same_chunks_from_the_host_in_cacheable_programs():
             pass
 
     class Log(logging.Handler):
-        lines: list = []
+        def __init__(self, level):
+            super().__init__(level)
+            self.lines = []
 
         def emit(self, record):
             self.lines.append(record.getMessage())
