@@ -75,6 +75,9 @@ def test_rational_atan2_equals_numpy_everywhere():
     np.testing.assert_allclose(np.asarray(_depth.atan2(jnp.asarray(y[ok]), jnp.asarray(x[ok]))),
                                np.arctan2(y[ok] + 0.0, x[ok]), rtol=2e-16 * 4, atol=1e-15)
     assert float(_depth.atan2(jnp.asarray(0.0), jnp.asarray(0.0))) == 0.0
+    # Near the top of the float range, where num + den of the pi/4 reduction would overflow.
+    y, x = np.array([1e308, -1.2e308, 1.7e308, 9e307]), np.array([1.5e308, -1.7e308, 1.1e308, -1.6e308])
+    np.testing.assert_allclose(np.asarray(_depth.atan2(jnp.asarray(y), jnp.asarray(x))), np.arctan2(y, x), rtol=1e-15)
 
 
 @pytest.mark.parametrize("n", [2, 3, 4, 5])
@@ -84,6 +87,19 @@ def test_per_frame_phasor_is_the_demodulation(n):
     z = _depth.demodulate(jnp.moveaxis(values, 0, -1))
     np.testing.assert_allclose(re, jnp.real(z), atol=1e-12)
     np.testing.assert_allclose(im, jnp.imag(z), atol=1e-12)
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 5])
+def test_delta_method_without_signal_is_rayleigh_noise_and_a_uniform_phase(n):
+    """Z = 0: the amplitude is the modulus of circular noise of s^2 = var n / 2 per quadrature
+    (Rayleigh: mean s sqrt(pi / 2), variance (2 - pi / 2) s^2) and the phase uniform (pi^2 / 3)."""
+    var = 2.5
+    phase, var_phase, v, amp_mean, var_amp = _depth.delta_method(jnp.zeros(n), jnp.full(n, var), n)
+    s2, k = var * n / 2, _depth.amplitude_scale(n)
+    assert float(v) == np.inf and float(phase) == 0.0
+    assert float(var_phase) == pytest.approx(np.pi**2 / 3, rel=1e-12)
+    assert float(amp_mean) == pytest.approx(k * np.sqrt(0.5 * np.pi * s2), rel=1e-12)
+    assert float(var_amp) == pytest.approx(k**2 * (2.0 - 0.5 * np.pi) * s2, rel=1e-12)
 
 
 @pytest.mark.parametrize("n", [2, 4, 5])

@@ -37,6 +37,7 @@ _ATAN_P = (-8.750608600031904122785e-1, -1.615753718733365076637e1, -7.500855792
 _ATAN_Q = (2.485846490142306297962e1, 1.650270098316988542046e2, 4.328810604912902668951e2,
            4.853903996359136964868e2, 1.945506571482613964425e2)
 _TAN_PI_8 = math.sqrt(2.0) - 1.0
+_HALVE_ABOVE = 2.0**1000
 
 
 def amplitude_scale(n_phases: int) -> float:
@@ -71,9 +72,15 @@ def atan2(y: Array, x: Array) -> Array:
     ax, ay = jnp.abs(x), jnp.abs(y)
     swap = ay > ax
     num, den = jnp.where(swap, ax, ay), jnp.where(swap, ay, ax)
-    r = num / jnp.where(den == 0.0, 1.0, den)  # in [0, 1]
-    big = r > _TAN_PI_8
-    r = jnp.where(big, (r - 1.0) / (r + 1.0), r)
+    # r = num / den in [0, 1], reduced by pi/4 above tan(pi/8) to (r - 1) / (r + 1) = (num - den) / (num +
+    # den) (both halved near the top of the range, against overflow). Each quotient has one user (the
+    # select), so XLA fuses the whole function into its consumer; a quotient with several users is
+    # materialised, and its inputs recomputed in every fusion that reads it (a frame's phase and
+    # amplitude: four fusions, now two, 1.4 -> 0.9 ms for 224 x 172 pixels).
+    big = num > _TAN_PI_8 * den
+    s = jnp.where(den > _HALVE_ABOVE, 0.5, 1.0)
+    r = jnp.where(big, (s * num - s * den) / jnp.where(big, s * num + s * den, 1.0),
+                  num / jnp.where(den == 0.0, 1.0, den))
     z = r * r
     p = _ATAN_P[0]
     for c in _ATAN_P[1:]:
@@ -146,13 +153,19 @@ def delta_method(values: Float[Array, "*b phases"], variances: Float[Array, "*b 
     im = _dot(sin, d)
     r2 = re * re + im * im
     ok = r2 > 0.0
-    r = jnp.sqrt(jnp.where(ok, r2, 1.0))
-    c, s = jnp.where(ok, re / r, 1.0), jnp.where(ok, im / r, 0.0)
-    along = [cj * c + sj * s for cj, sj in zip(cos, sin, strict=True)]  # Re(exp(i theta_j) conj(Z)) / |Z|
-    across = [sj * c - cj * s for cj, sj in zip(cos, sin, strict=True)]  # Im(exp(i theta_j) conj(Z)) / |Z|
-    s_par2 = sum(vj * aj * aj for vj, aj in zip(var, along, strict=True))
-    s_perp2 = sum(vj * aj * aj for vj, aj in zip(var, across, strict=True))
-    v = jnp.where(ok, s_perp2 / jnp.where(ok, r2, 1.0), jnp.inf)
+    r2_safe = jnp.where(ok, r2, 1.0)
+    # The projections unnormalised (|Z| u_j), divided by |Z|^2 once: no square root or quotient with
+    # several users, which XLA would materialise and then recompute the charges' whole chain in every
+    # fusion that reads it (the noise image needs no square root of |Z| at all).
+    along = [cj * re + sj * im for cj, sj in zip(cos, sin, strict=True)]  # Re(exp(i theta_j) conj(Z))
+    across = [sj * re - cj * im for cj, sj in zip(cos, sin, strict=True)]  # Im(exp(i theta_j) conj(Z))
+    # (At Z = 0 the old normalised projections took u = 1: Re u_j = cos theta_j, Im u_j = sin theta_j.)
+    s_par2 = jnp.where(ok, sum(vj * aj * aj for vj, aj in zip(var, along, strict=True)) / r2_safe,
+                       sum(vj * cj * cj for vj, cj in zip(var, cos, strict=True)))
+    s_perp2 = jnp.where(ok, sum(vj * aj * aj for vj, aj in zip(var, across, strict=True)) / r2_safe,
+                        sum(vj * sj * sj for vj, sj in zip(var, sin, strict=True)))
+    v = jnp.where(ok, s_perp2 / r2_safe, jnp.inf)
+    r = jnp.sqrt(r2_safe)
     phase = jnp.where(ok, jnp.mod(atan2(im, re), 2.0 * jnp.pi), 0.0)
     var_phase, mean_ratio = _rician.moments(v)
     modulus = jnp.where(ok, r, 0.0)
