@@ -6,7 +6,10 @@ pixel); its returns are computed once (not timed: a scene is rendered many times
 on both sides: the exposure of every pixel from its returns (etendue, the tabulated correlation of
 each return, the phasor sum), then the noisy frames (noise, SBI, ADC, demodulation).
 
-- ``one``: one noisy frame per call (``render_frame(frames=1, keep_frames=1)``; NumPy: one frame);
+- ``one``: one noisy frame per call, the scene exposed in the same call (``tj.sample_frame(..., 1)``:
+  the exposure and the frame's distance, amplitude and validity; NumPy: the same, one frame);
+- ``render_one``: the same through ``render_frame(frames=1, keep_frames=1)``, which also computes the
+  per-pixel statistics of its frames (no NumPy counterpart);
 - ``prepared``: one noisy frame per call of a scene exposed once (``prepare_frame`` once, then
   ``.sample(key, 1)``: the frame only; NumPy: the expected charges once, then one frame per call):
   a live view or a stream of frames of a static scene;
@@ -109,8 +112,9 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
     floor_jax = jax.jit(lambda f0: jnp.sum(normals(words, f0 + jnp.arange(BATCH, dtype=jnp.uint32)[None, :],
                                                    jnp.arange(n_px, dtype=jnp.uint32)[:, None], 0, 4)))
     cases = {
-        "tofjax_one": lambda i: ready(tj.render_frame(p, s, returns, jax.random.key(i + 3), 1, keep_frames=1)
-                                      .result.depth_m),
+        "tofjax_one": lambda i: ready(tj.sample_frame(p, s, returns, jax.random.key(i + 3), 1).radial_m),
+        "tofjax_render_one": lambda i: ready(tj.render_frame(p, s, returns, jax.random.key(i + 3), 1, keep_frames=1)
+                                             .result.depth_m),
         "tofjax_batch": lambda i: ready(tj.render_frame(p, s, returns, jax.random.key(i + 3), BATCH,
                                                         keep_frames=BATCH).result.depth_m),
         "tofjax_prepared": lambda i: ready(prepared.sample(jax.random.key(i + 3), 1).radial_m),
@@ -129,7 +133,8 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
         cases["numpy_batch"] = lambda i: npf.frames(rng, BATCH)
         cases["floor_numpy_normals"] = lambda i: rng.standard_normal((4, n_px, BATCH, 4))
     t = interleaved(cases, repeats)
-    out = {"seconds": t, "frames_per_s": {"tofjax_one": 1 / t["tofjax_one"], "tofjax_prepared": 1 / t["tofjax_prepared"],
+    out = {"seconds": t, "frames_per_s": {"tofjax_one": 1 / t["tofjax_one"], "tofjax_render_one": 1 / t["tofjax_render_one"],
+                                          "tofjax_prepared": 1 / t["tofjax_prepared"],
                                           "tofjax_batch": BATCH / t["tofjax_batch"]},
            "analytic_images_per_s": 1 / t["tofjax_analytic"],
            "analytic_prepared_images_per_s": 1 / t["tofjax_analytic_prepared"],
@@ -151,25 +156,26 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
 
 
 def table(r: dict) -> str:
-    lines = [f"{'case':<42}{'tofjax':>16}{'NumPy':>14}{'ratio':>10}  target"]
+    lines = [f"{'case':<50}{'tofjax':>16}{'NumPy':>14}{'ratio':>10}  target"]
     for name, target in (("frame_224x172", (">= 100 fps, >= 2x", ">= 1000/s")), ("frame_640x480", (">= 25 fps", ""))):
         if name not in r:
             continue
         c, size = r[name], name[6:]
         fps = c["frames_per_s"]
-        labels = {"one": "1 per call", "prepared": "1 per call, prepared", "batch": f"{BATCH} per call"}
-        for kind in ("one", "prepared", "batch"):
+        labels = {"one": "1 per call", "render_one": "1 per call, with statistics", "prepared": "1 per call, prepared",
+                  "batch": f"{BATCH} per call"}
+        for kind in ("one", "render_one", "prepared", "batch"):
             ratio = c["ratios"].get(f"numpy_{kind}/tofjax_{kind}")
-            lines.append(f"{size + ' noisy frames, ' + labels[kind]:<42}"
+            lines.append(f"{size + ' noisy frames, ' + labels[kind]:<50}"
                          f"{fps[f'tofjax_{kind}']:>12.0f} fps{fps.get(f'numpy_{kind}', float('nan')):>10.0f} fps"
-                         f"{(f'{ratio:.1f}x' if ratio else '-'):>10}  {target[0]}")
-        lines.append(f"{size + ' analytic noise image':<42}{c['analytic_images_per_s']:>9.0f} images/s{'':>14}{'':>10}  "
+                         f"{(f'{ratio:.1f}x' if ratio else '-'):>10}  {target[0] if kind == 'one' else ''}")
+        lines.append(f"{size + ' analytic noise image':<50}{c['analytic_images_per_s']:>9.0f} images/s{'':>14}{'':>10}  "
                      f"{target[1]}")
-        lines.append(f"{size + ' analytic, exposure prepared':<42}{c['analytic_prepared_images_per_s']:>9.0f} images/s")
-        lines.append(f"{size + ' noise image only (tj.noise_image)':<42}{c['noise_image_per_s']:>9.0f} images/s{'':>24}  "
+        lines.append(f"{size + ' analytic, exposure prepared':<50}{c['analytic_prepared_images_per_s']:>9.0f} images/s")
+        lines.append(f"{size + ' noise image only (tj.noise_image)':<50}{c['noise_image_per_s']:>9.0f} images/s{'':>24}  "
                      f"{target[1]}")
-        lines.append(f"{size + ' noise image only, exposure prepared':<42}{c['noise_image_prepared_per_s']:>9.0f} images/s")
-        lines.append(f"{size + ' batch / its normals (floor)':<42}{c['ratios']['tofjax_batch/floor_tofjax_normals']:>15.1f}x"
+        lines.append(f"{size + ' noise image only, exposure prepared':<50}{c['noise_image_prepared_per_s']:>9.0f} images/s")
+        lines.append(f"{size + ' batch / its normals (floor)':<50}{c['ratios']['tofjax_batch/floor_tofjax_normals']:>15.1f}x"
                      + (f"{c['ratios']['numpy_batch/floor_numpy_normals']:>13.1f}x" if 'numpy_batch/floor_numpy_normals'
                         in c['ratios'] else ""))
     return "\n".join(lines)

@@ -97,6 +97,15 @@ def test_monte_carlo_frames_match_the_analytic_noise_image(params, one_ray):
     np.testing.assert_array_equal(sampled.valid, kept)
     np.testing.assert_allclose(sampled.radial_m, np.where(kept, mc.frames_radial_m, np.nan), rtol=1e-15, atol=0)
     np.testing.assert_allclose(sampled.amplitude_lsb, mc.result.amplitude_lsb.transpose(2, 0, 1), rtol=1e-15, atol=0)
+    # Exposed in the same call (tj.sample_frame), and inside a jit of the user's over the scene: the
+    # same frames.
+    direct = tj.sample_frame(params, one_ray, returns, jax.random.key(1), 2)
+    in_jit = jax.jit(lambda d: tj.sample_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(d, 0.9)),
+                                               jax.random.key(1), 2))(1.3)
+    for frames in (direct, in_jit):
+        np.testing.assert_array_equal(frames.valid, sampled.valid)
+        np.testing.assert_allclose(frames.radial_m, sampled.radial_m, rtol=1e-14, atol=0)
+        np.testing.assert_allclose(frames.amplitude_lsb, sampled.amplitude_lsb, rtol=1e-14, atol=0)
 
 
 def test_frames_sampled_in_several_chunks_are_the_kept_frames(params, one_ray, monkeypatch):
@@ -112,6 +121,12 @@ def test_frames_sampled_in_several_chunks_are_the_kept_frames(params, one_ray, m
     np.testing.assert_array_equal(sampled.valid, valid)
     np.testing.assert_allclose(sampled.radial_m, np.where(valid, kept.frames_radial_m, np.nan), rtol=1e-15, atol=0)
     np.testing.assert_allclose(sampled.amplitude_lsb, kept.result.amplitude_lsb.transpose(2, 0, 1), rtol=1e-15, atol=0)
+    # tj.sample_frame as a large frame runs it (the constants a program of their own): the same frames.
+    monkeypatch.setattr(_frame, "FUSED_SAMPLE_ELEMENTS", 0)
+    direct = tj.sample_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(1.3, 0.9)),
+                             jax.random.key(1), 5)
+    np.testing.assert_array_equal(direct.valid, valid)
+    np.testing.assert_allclose(direct.radial_m, sampled.radial_m, rtol=1e-14, atol=0)
 
 
 def test_a_flat_wall_falls_off_as_profile_times_cos4_times_incidence(params):

@@ -48,7 +48,7 @@ _EXPORTS = {
     "PRESETS": "_presets", "Preset": "_presets", "preset_config": "_presets", "preset_text": "_presets",
     "FrameSettings": "_frame", "FrameResult": "_frame", "FLAGS": "_frame", "frame_shape": "_frame",
     "frame_rays": "_frame", "scene_returns": "_frame", "depth_returns": "_frame", "predict_frame": "_frame", "noise_image": "_frame",
-    "render_frame": "_frame", "prepare_frame": "_frame", "PreparedFrame": "_frame", "NoisyFrames": "_frame", "sharded_map": "_frame", "pixel_etendue_m2_sr": "_frame",
+    "render_frame": "_frame", "sample_frame": "_frame", "prepare_frame": "_frame", "PreparedFrame": "_frame", "NoisyFrames": "_frame", "sharded_map": "_frame", "pixel_etendue_m2_sr": "_frame",
     "Returns": "_returns", "save_returns": "_returns", "load_returns": "_returns",
     "PixelPattern": "_pattern", "draw_pattern": "_pattern", "mean_pattern": "_pattern",
 }
@@ -90,7 +90,8 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from . import frameio, plots, progress, report, scenes, schema, stats, sweepfile  # noqa: F401
     from ._frame import (  # noqa: F401
         FLAGS, FrameResult, FrameSettings, NoisyFrames, PreparedFrame, depth_returns, frame_rays, frame_shape,
-        noise_image, pixel_etendue_m2_sr, predict_frame, prepare_frame, render_frame, scene_returns, sharded_map)
+        noise_image, pixel_etendue_m2_sr, predict_frame, prepare_frame, render_frame, sample_frame, scene_returns,
+        sharded_map)
     from ._pattern import PixelPattern, draw_pattern, mean_pattern  # noqa: F401
     from ._returns import Returns, load_returns, save_returns  # noqa: F401
     from ._analytic import predict  # noqa: F401
