@@ -23,6 +23,8 @@ two smooth numeric shapes.
 
 from __future__ import annotations
 
+import functools
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -49,10 +51,11 @@ def _fourier_series_of_pulse(u: Array, duty: Array, order: int) -> Array:
 
 
 def _gauss_extended(u: Array, duty: Array, order: int) -> Array:
-    # Sum the neighbouring periods so wide, low-order pulses stay periodic.
-    images = jnp.arange(-2, 3, dtype=float).reshape((1,) * u.ndim + (5,))
-    x = (u[..., None] + images) / (0.5 * duty)
-    return jnp.sum(jnp.exp(-jnp.log(2.0) * x ** (2 * order)), axis=-1)
+    # Sum the neighbouring periods so wide, low-order pulses stay periodic. The five images added one
+    # by one: as a reduction over a last axis of 5, XLA's CPU library kernel took 0.5 ms per waveform
+    # on the coefficients' grid, a third of every call's correlation table.
+    images = [jnp.exp(-jnp.log(2.0) * ((u + k) / (0.5 * duty)) ** (2 * order)) for k in (-2.0, -1.0, 0.0, 1.0, 2.0)]
+    return functools.reduce(jnp.add, images)
 
 
 @eqx.filter_jit
