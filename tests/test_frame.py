@@ -97,12 +97,12 @@ def test_monte_carlo_frames_match_the_analytic_noise_image(params, one_ray):
     np.testing.assert_array_equal(sampled.valid, kept)
     np.testing.assert_allclose(sampled.radial_m, np.where(kept, mc.frames_radial_m, np.nan), rtol=1e-15, atol=0)
     np.testing.assert_allclose(sampled.amplitude_lsb, mc.result.amplitude_lsb.transpose(2, 0, 1), rtol=1e-15, atol=0)
-    # Exposed in the same call (tj.sample_frame), and inside a jit of the user's over the scene: the
-    # same frames.
+    # Exposed in the same call (tj.sample_frame), and vmapped over scenes inside a jit of the user's:
+    # the same frames.
     direct = tj.sample_frame(params, one_ray, returns, jax.random.key(1), 2)
-    in_jit = jax.jit(lambda d: tj.sample_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(d, 0.9)),
-                                               jax.random.key(1), 2))(1.3)
-    for frames in (direct, in_jit):
+    batch = jax.jit(jax.vmap(lambda d: tj.sample_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(d, 0.9)),
+                                                       jax.random.key(1), 2)))(jnp.array([1.3, 1.3]))
+    for frames in (direct, *(jax.tree_util.tree_map(lambda x, i=i: x[i], batch) for i in range(2))):
         np.testing.assert_array_equal(frames.valid, sampled.valid)
         np.testing.assert_allclose(frames.radial_m, sampled.radial_m, rtol=1e-14, atol=0)
         np.testing.assert_allclose(frames.amplitude_lsb, sampled.amplitude_lsb, rtol=1e-14, atol=0)
