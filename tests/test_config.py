@@ -180,3 +180,19 @@ def test_a_list_of_modulation_frequencies_means_range_extension():
     with pytest.raises(tj.ConfigError, match="not both"):
         tj.config_from_dict({"illumination_waveform": {"modulation_frequency_hz": [80e6, 60e6],
                                                        "extra_modulation_frequencies_hz": [20e6]}})
+
+
+def test_array_values_are_range_checked_element_by_element():
+    """The first element out of range is named, with its index (NaN is never in range; the bounds'
+    openness as the key states it: 0 < distance <= 1000 m)."""
+    values = np.linspace(0.5, 4.0, 1000)
+    values[[321, 700]] = [0.0, np.nan]
+    with pytest.raises(ValueError, match=r"^scene\.distance_m = 0\.0 \(element \[321\] of an array of shape \(1000,\)\) "
+                                         r"is out of range: allowed 0 < value <= 1000 \[m\]$"):
+        tj.Sweep("distance", values)
+    values[321] = 1.0
+    with pytest.raises(ValueError, match=r"^scene\.distance_m = nan \(element \[700\] "):
+        tj.Sweep("distance", values)
+    with pytest.raises(ValueError, match=r"^scene\.distance_m = 1000\.5 \(element \[1, 1\] of an array of shape \(2, 2\)\)"):
+        tj.Sweep("distance", [[1.0, 1000.0], [2.0, 1000.5]])
+    assert float(tj.Sweep("distance", [1000.0]).values[0]) == 1000.0  # the closed upper bound

@@ -354,14 +354,19 @@ def check_array(section: str, name: str, value) -> None:
     key = KEY_BY_DOTTED[f"{section}.{name}"]
     arr = np.asarray(value, dtype=float)
     flat = arr.reshape(-1)
-    for i, x in enumerate(flat):
-        if not in_range(key, float(x)):
-            # One value in the message, not the whole array (a sweep may hold a million).
-            where = "" if arr.ndim == 0 else f" (element {np.unravel_index(i, arr.shape)} of an array of shape " \
-                                             f"{arr.shape})"
-            raise ValueError(
-                f"{key.dotted} = {float(x)!r}{where} is out of range: allowed {key.range_text()} [{key.unit}]"
-            )
+    # in_range for every element at once (a Python loop took 30 ms for a sweep of 1e5 points).
+    ok = ~np.isnan(flat)
+    if key.lo is not None:
+        ok &= flat > key.lo if key.lo_open else flat >= key.lo
+    if key.hi is not None:
+        ok &= flat < key.hi if key.hi_open else flat <= key.hi
+    if not ok.all():
+        i = int(np.argmin(ok))  # the first element out of range
+        # One value in the message, not the whole array (a sweep may hold a million).
+        index = [int(j) for j in np.unravel_index(i, arr.shape)]
+        where = "" if arr.ndim == 0 else f" (element {index} of an array of shape {arr.shape})"
+        raise ValueError(f"{key.dotted} = {float(flat[i])!r}{where} is out of range: allowed {key.range_text()} "
+                         f"[{key.unit}]")
 
 
 def check_less(a_name: str, a, b_name: str, b) -> None:
