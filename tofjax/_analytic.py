@@ -12,7 +12,6 @@ numerically; the cost per operating point is a few hundred flops and O(phases) m
 from __future__ import annotations
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 from jaxtyping import Array
 
@@ -171,8 +170,7 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None) -> Re
     sweep runs as it is: the caller's program is compiled for its shapes once anyway.
     """
     check_inputs(params, sweep)
-    traced = any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves((params, sweep, smooth)))
-    padded = sweep if traced else pad_sweep(sweep)
+    padded = sweep if _jit.traced((params, sweep, smooth)) else pad_sweep(sweep)
     chain, charges = _predict_exposure(params, padded, smooth)
     m = _predict_moments(chain, padded, charges)
     return unpad(_predict_result(chain, padded, m), sweep, padded)

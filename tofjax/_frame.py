@@ -32,7 +32,7 @@ from ._analytic import analytic, moments
 from ._chain import Chain, build_chain
 from ._frames import draw_frames, drive_blocks, equal_parts, point_constants
 from ._mixer import TapCharges, scene_photon_irradiance
-from ._montecarlo import Prepared, _traced, assemble, assemble_jit, check_counts, frames_step, run_blocks
+from ._montecarlo import Prepared, assemble, assemble_jit, check_counts, frames_step, run_blocks
 from ._noise import dark_electrons
 from ._optics import photon_energy_j, quantum_efficiency
 from ._params import Params, _check, _float, _static
@@ -341,7 +341,7 @@ class PreparedFrame(eqx.Module):
     def render(self, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0, progress: bool = False) -> FrameResult:
         """``frames`` Monte Carlo frames (:func:`render_frame`, which is ``prepare_frame(...).render(...)``)."""
         check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases)
-        if progress and not _traced((self, key)):  # chunk by chunk from the host (tofjax.simulate's progress)
+        if progress and not _jit.traced((self, key)):  # chunk by chunk from the host (tofjax.simulate's progress)
             step = frames_step(self.chain, _key_words_jit(key))
             sums, kept = drive_blocks(step, self.prepared.consts, math.prod(self.shape), frames, keep_frames,
                                       self.chain.n_phases, FRAME_CHUNK_ELEMENTS)

@@ -54,3 +54,9 @@ def jit(fn: Callable) -> Callable:
         return compiled(*(x for x, m in zip(leaves, mask, strict=True) if m))
 
     return call
+
+
+def traced(tree) -> bool:
+    """Whether any leaf of ``tree`` is a tracer: the call runs under ``jit``, ``vmap`` or ``grad``,
+    so its values are not concrete (no host loop over them, no padding on the host)."""
+    return any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(tree))

@@ -200,17 +200,12 @@ def simulate(
     """
     check_inputs(params, sweep)
     check_counts(iterations, keep_frames, sweep.samples, params.pixel.n_phases)
-    if progress and not _traced((params, sweep, key, smooth)):
+    if progress and not _jit.traced((params, sweep, key, smooth)):
         # From the host, chunk by chunk: programs without host callbacks (tofjax._frames.drive_blocks).
         chain, prepared, step = _setup_jit(params, sweep, key, smooth, fixed_pattern)
         sums, kept = drive_blocks(step, prepared.consts, sweep.samples, iterations, keep_frames, chain.n_phases)
         return assemble_jit(chain, sweep, prepared, sums, kept, iterations)
     return _simulate(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames, progress)
-
-
-def _traced(tree) -> bool:
-    """Whether any leaf of ``tree`` is a tracer (a call under ``jit``, ``vmap`` or ``grad``)."""
-    return any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(tree))
 
 
 def _run_inputs(params, sweep, key, smooth, fixed_pattern):

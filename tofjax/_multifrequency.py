@@ -46,7 +46,7 @@ from . import _jit
 from ._analytic import analytic, moments
 from ._chain import Chain, build_chain
 from ._frames import draw_frames, drive_blocks, reduce_frames, run_blocks, wrap
-from ._montecarlo import _traced, assemble, check_counts, prepare
+from ._montecarlo import assemble, check_counts, prepare
 from ._constants import SPEED_OF_LIGHT_M_PER_S
 from ._params import Params
 from ._random import key_words
@@ -214,7 +214,7 @@ def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, ite
     c = float(params.constants.speed_of_light_m_per_s)
     ranges = tuple(float(x) for x in c / (2.0 * freqs))
     freqs, extended = jnp.asarray(freqs), float(extended_range_m(freqs, c))
-    if progress and not _traced((params, sweep, key)):
+    if progress and not _jit.traced((params, sweep, key)):
         # From the host, chunk by chunk: programs without host callbacks (tofjax._frames.drive_blocks).
         chains, prepared, step, consts = _setup_jit(params, sweep, key, freqs, extended, ranges, fusion)
         sums, kept = drive_blocks(step, consts, sweep.samples, iterations, keep_frames, chains.n_phases)
