@@ -184,37 +184,37 @@ def memory_case() -> dict:
     return out
 
 
-def calibrate_case() -> dict:
-    command = [sys.executable, "-m", "tofjax.cli", "calibrate", *sorted(str(p) for p in EXAMPLES.glob("*.csv")),
-               "--config", str(EXAMPLES / "camera.toml"), "--fit", FIT]
+def _fresh_processes(command: list[str], names: tuple[str, ...], suffix: str = "") -> dict:
+    """Seconds of ``command --out TMP/<name><suffix>`` for each of ``names`` in turn, each in a fresh
+    process, all sharing one compilation cache that starts empty (so the first run is cold)."""
     out = {}
     with tempfile.TemporaryDirectory() as tmp:
         env = {**os.environ, "TOFJAX_CACHE_DIR": os.path.join(tmp, "cache")}
-        for name in ("cold", "warm"):
+        for name in names:
             t0 = time.perf_counter()
-            subprocess.run([*command, "--out", os.path.join(tmp, name)], check=True, env=env, capture_output=True)
+            subprocess.run([*command, "--out", os.path.join(tmp, name + suffix)], check=True, env=env, capture_output=True)
             out[f"{name}_s"] = time.perf_counter() - t0
-        helps = []
-        for _ in range(3):
-            t0 = time.perf_counter()
-            subprocess.run([sys.executable, "-m", "tofjax.cli", "--help"], check=True, capture_output=True)
-            helps.append(time.perf_counter() - t0)
-        out["help_s"] = statistics.median(helps)
+    return out
+
+
+def calibrate_case() -> dict:
+    command = [sys.executable, "-m", "tofjax.cli", "calibrate", *sorted(str(p) for p in EXAMPLES.glob("*.csv")),
+               "--config", str(EXAMPLES / "camera.toml"), "--fit", FIT]
+    out = _fresh_processes(command, ("cold", "warm"))
+    helps = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "tofjax.cli", "--help"], check=True, capture_output=True)
+        helps.append(time.perf_counter() - t0)
+    out["help_s"] = statistics.median(helps)
     return out
 
 
 def main_job_case() -> dict:
     """README's first command (``tofjax simulate --sweep distance``: 1000 points x 2000 frames, progress
     on), cold (empty compilation cache) and warm, in fresh processes as users run it."""
-    out = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        env = {**os.environ, "TOFJAX_CACHE_DIR": os.path.join(tmp, "cache")}
-        for name in ("cold", "warm", "warm_again"):
-            t0 = time.perf_counter()
-            subprocess.run([sys.executable, "-m", "tofjax.cli", "simulate", "--sweep", "distance", "--out",
-                            os.path.join(tmp, f"{name}.csv")], check=True, env=env, capture_output=True)
-            out[f"{name}_s"] = time.perf_counter() - t0
-    return out
+    return _fresh_processes([sys.executable, "-m", "tofjax.cli", "simulate", "--sweep", "distance"],
+                            ("cold", "warm", "warm_again"), ".csv")
 
 
 def main() -> None:
