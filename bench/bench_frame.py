@@ -3,12 +3,17 @@ random-number floor, on this machine, in one run (cases interleaved, medians and
 
 The scene is a wall tilted by 30 degrees at 1.2 m on the axis, 3 x 3 rays per pixel (9 returns per
 pixel); its returns are computed once (not timed: a scene is rendered many times). Timed per call,
-on both sides: the exposure of every pixel from its returns (etendue, the tabulated correlation of
-each return, the phasor sum), then the noisy frames (noise, SBI, ADC, demodulation).
+on both sides: the exposure of every pixel from its returns (the tabulated correlation of each
+return, the phasor sum), then the noisy frames (noise, SBI, ADC, demodulation). The camera's own
+constants (the correlation table, each pixel's etendue and conversion to electrons) are computed once
+on both sides, as NumPy's ``NumpyFrame`` always did: a camera streaming a changing scene.
 
-- ``one``: one noisy frame per call, the scene exposed in the same call (``tj.sample_frame(..., 1)``:
-  the exposure and the frame's distance, amplitude and validity; NumPy: the same, one frame);
-- ``render_one``: the same through ``render_frame(frames=1, keep_frames=1)``, which also computes the
+- ``one``: one noisy frame per call, the scene exposed in the same call (``tj.prepare_camera`` once,
+  then its ``sample(returns, key, 1)``: the exposure and the frame's distance, amplitude and
+  validity; NumPy: the same, one frame);
+- ``sample_frame``: the same through ``tj.sample_frame(params, settings, returns, key, 1)``, which
+  prepares the camera in every call too (no NumPy counterpart);
+- ``render_one``: one frame through ``render_frame(frames=1, keep_frames=1)``, which also computes the
   per-pixel statistics of its frames (no NumPy counterpart);
 - ``prepared``: one noisy frame per call of a scene exposed once (``prepare_frame`` once, then
   ``.sample(key, 1)``: the frame only; NumPy: the expected charges once, then one frame per call):
@@ -20,8 +25,11 @@ each return, the phasor sum), then the noisy frames (noise, SBI, ADC, demodulati
 - ``analytic``: the analytic frame (``predict_frame``: every field, the noise image among them),
   images per second; ``analytic_prepared``: the chain's share of it, after the exposure
   (``prepare_frame(...).predict()``);
-- ``noise_image``: only the noise image (``tj.noise_image``: exposure and depth standard deviation,
-  nothing else); ``noise_image_prepared``: after the exposure (``PreparedFrame.noise_image()``).
+- ``noise_image``: only the noise image (``tj.noise_image``: the camera, the exposure and the depth
+  standard deviation, nothing else); ``noise_image_camera``: of a prepared camera
+  (``PreparedCamera.noise_image(returns)``: the exposure and the chain); ``noise_image_depth_map``:
+  the same for a depth map of the same plane (one return per pixel, :func:`tofjax.depth_returns`);
+  ``noise_image_prepared``: after the exposure (``PreparedFrame.noise_image()``).
 
 Targets (issue 13): 224 x 172 >= 100 frames/s and >= 2x NumPy; 640 x 480 >= 25 frames/s; the
 analytic noise image of 224 x 172 >= 1000 images/s.
@@ -106,13 +114,16 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
     p = eqx.tree_at(lambda q: q.camera.optical_area_m, tj.Params(), jnp.array([cols * PITCH, rows * PITCH]))
     s = tj.FrameSettings()
     returns = ready(tj.scene_returns(p, s, scenes.tilted_plane(1.2, 30.0)))
+    depth_map = ready(tj.depth_returns(p, s, returns.radial_m, 0.5, radial=True))
     n_px = rows * cols
+    camera = ready(tj.prepare_camera(p, s))
     prepared = ready(tj.prepare_frame(p, s, returns))
     words = key_words(jax.random.key(5))
     floor_jax = jax.jit(lambda f0: jnp.sum(normals(words, f0 + jnp.arange(BATCH, dtype=jnp.uint32)[None, :],
                                                    jnp.arange(n_px, dtype=jnp.uint32)[:, None], 0, 4)))
     cases = {
-        "tofjax_one": lambda i: ready(tj.sample_frame(p, s, returns, jax.random.key(i + 3), 1).radial_m),
+        "tofjax_one": lambda i: ready(camera.sample(returns, jax.random.key(i + 3), 1).radial_m),
+        "tofjax_sample_frame": lambda i: ready(tj.sample_frame(p, s, returns, jax.random.key(i + 3), 1).radial_m),
         "tofjax_render_one": lambda i: ready(tj.render_frame(p, s, returns, jax.random.key(i + 3), 1, keep_frames=1)
                                              .result.depth_m),
         "tofjax_batch": lambda i: ready(tj.render_frame(p, s, returns, jax.random.key(i + 3), BATCH,
@@ -121,6 +132,8 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
         "tofjax_analytic": lambda i: ready(tj.predict_frame(p, s, returns).depth_std_m),
         "tofjax_analytic_prepared": lambda i: ready(prepared.predict().depth_std_m),
         "tofjax_noise_image": lambda i: ready(tj.noise_image(p, s, returns)),
+        "tofjax_noise_image_camera": lambda i: ready(camera.noise_image(returns)),
+        "tofjax_noise_image_depth_map": lambda i: ready(camera.noise_image(depth_map)),
         "tofjax_noise_image_prepared": lambda i: ready(prepared.noise_image()),
         "floor_tofjax_normals": lambda i: ready(floor_jax(jnp.uint32(BATCH * (i + 2)))),
     }
@@ -133,12 +146,15 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
         cases["numpy_batch"] = lambda i: npf.frames(rng, BATCH)
         cases["floor_numpy_normals"] = lambda i: rng.standard_normal((4, n_px, BATCH, 4))
     t = interleaved(cases, repeats)
-    out = {"seconds": t, "frames_per_s": {"tofjax_one": 1 / t["tofjax_one"], "tofjax_render_one": 1 / t["tofjax_render_one"],
+    out = {"seconds": t, "frames_per_s": {"tofjax_one": 1 / t["tofjax_one"], "tofjax_sample_frame": 1 / t["tofjax_sample_frame"],
+                                          "tofjax_render_one": 1 / t["tofjax_render_one"],
                                           "tofjax_prepared": 1 / t["tofjax_prepared"],
                                           "tofjax_batch": BATCH / t["tofjax_batch"]},
            "analytic_images_per_s": 1 / t["tofjax_analytic"],
            "analytic_prepared_images_per_s": 1 / t["tofjax_analytic_prepared"],
            "noise_image_per_s": 1 / t["tofjax_noise_image"],
+           "noise_image_camera_per_s": 1 / t["tofjax_noise_image_camera"],
+           "noise_image_depth_map_per_s": 1 / t["tofjax_noise_image_depth_map"],
            "noise_image_prepared_per_s": 1 / t["tofjax_noise_image_prepared"],
            "ratios": {"tofjax_batch/floor_tofjax_normals": t["tofjax_batch"] / t["floor_tofjax_normals"]}}
     if with_numpy:
@@ -162,9 +178,9 @@ def table(r: dict) -> str:
             continue
         c, size = r[name], name[6:]
         fps = c["frames_per_s"]
-        labels = {"one": "1 per call", "render_one": "1 per call, with statistics", "prepared": "1 per call, prepared",
-                  "batch": f"{BATCH} per call"}
-        for kind in ("one", "render_one", "prepared", "batch"):
+        labels = {"one": "1 per call", "sample_frame": "1 per call, camera too", "render_one": "1 per call, with statistics",
+                  "prepared": "1 per call, scene prepared", "batch": f"{BATCH} per call"}
+        for kind in ("one", "sample_frame", "render_one", "prepared", "batch"):
             ratio = c["ratios"].get(f"numpy_{kind}/tofjax_{kind}")
             lines.append(f"{size + ' noisy frames, ' + labels[kind]:<50}"
                          f"{fps[f'tofjax_{kind}']:>12.0f} fps{fps.get(f'numpy_{kind}', float('nan')):>10.0f} fps"
@@ -172,8 +188,11 @@ def table(r: dict) -> str:
         lines.append(f"{size + ' analytic noise image':<50}{c['analytic_images_per_s']:>9.0f} images/s{'':>14}{'':>10}  "
                      f"{target[1]}")
         lines.append(f"{size + ' analytic, exposure prepared':<50}{c['analytic_prepared_images_per_s']:>9.0f} images/s")
-        lines.append(f"{size + ' noise image only (tj.noise_image)':<50}{c['noise_image_per_s']:>9.0f} images/s{'':>24}  "
-                     f"{target[1]}")
+        lines.append(f"{size + ' noise image only, camera prepared':<50}{c['noise_image_camera_per_s']:>9.0f} images/s"
+                     f"{'':>24}  {target[1]}")
+        lines.append(f"{size + ' noise image only, camera too (tj.noise_image)':<50}{c['noise_image_per_s']:>9.0f} images/s")
+        lines.append(f"{size + ' noise image only, depth map, camera prepared':<50}"
+                     f"{c['noise_image_depth_map_per_s']:>9.0f} images/s")
         lines.append(f"{size + ' noise image only, exposure prepared':<50}{c['noise_image_prepared_per_s']:>9.0f} images/s")
         lines.append(f"{size + ' batch / its normals (floor)':<50}{c['ratios']['tofjax_batch/floor_tofjax_normals']:>15.1f}x"
                      + (f"{c['ratios']['numpy_batch/floor_numpy_normals']:>13.1f}x" if 'numpy_batch/floor_numpy_normals'

@@ -49,7 +49,7 @@ def test_rolled_table_equals_one_transform_per_phase_step(n):
     """2 and 4 phase steps are whole grid rows: the table is the first step's, rolled. It equals
     the table made with one transform per step (to the FFTs' rounding, 1e-12 of the swing)."""
     ill, ref = _waves("gauss_extended", 0.25, "pulse", 0.5)
-    rolled = np.asarray(correlation(ill, ref, n).table)[:-1]
+    rolled = np.asarray(correlation(ill, ref, n).table)[..., :2]  # each cell's value and slope at its grid point
     p = correlation_coefficients(ill, ref)
     direct = np.asarray(_spectral_table(p, jnp.arange(p.shape[0], dtype=float), phase_steps(n), N_TABLE))
     np.testing.assert_allclose(rolled, direct, rtol=0, atol=1e-12 * np.max(np.abs(direct)))
@@ -87,3 +87,36 @@ def test_derivatives_in_delay_and_duty_match_finite_differences():
     # The delay derivative equals the series' own derivative (the interpolant is C^1).
     slope = jax.grad(lambda x: series(ill, ref, 4, x)[0])(0.7)
     assert float(jax.grad(lambda x: correlation(ill, ref, 4)(x)[0])(0.7)) == pytest.approx(float(slope), rel=1e-5)
+
+
+def test_each_cell_is_the_hermite_cubic_between_its_grid_points():
+    """The table's power basis: cell k's cubic ends (u = 1) at the value and slope that cell k + 1
+    starts with (C^1, the last cell wrapping to the first), and starts at the grid value and slope
+    of the transforms. Fails with a wrong basis change (the table-vs-series test then fails too, but
+    only through the interpolation's error)."""
+    ill, ref = _waves("pulse", 0.25, "gauss_extended", 0.5)
+    c = np.asarray(correlation(ill, ref, 4).table)
+    end_value, end_slope = c.sum(axis=-1), c[..., 1] + 2 * c[..., 2] + 3 * c[..., 3]
+    swing = np.max(np.abs(c[..., 0]))
+    np.testing.assert_allclose(end_value, np.roll(c[..., 0], -1, axis=0), rtol=0, atol=1e-13 * swing)
+    np.testing.assert_allclose(end_slope, np.roll(c[..., 1], -1, axis=0), rtol=0, atol=1e-13 * swing)
+
+
+@pytest.mark.parametrize("tabulate", [True, False])
+@pytest.mark.parametrize("k", [9, 65])
+def test_weighted_sum_of_returns_is_the_sum_of_their_correlations(k, tabulate):
+    """sum_r w_r a_j(path_r s + offset): return by return up to 64 returns (k = 9), contracted
+    beyond (k = 65), tabulated or summed as the series; against the lookups one return at a time,
+    and its path derivative against that sum's."""
+    from tofjax._correlation import UNROLLED_RETURNS
+
+    assert 9 <= UNROLLED_RETURNS < 65
+    ill, ref = _waves("gauss_extended", 0.25, "pulse", 0.5)
+    corr = correlation(ill, ref, 4, tabulate=tabulate)
+    rng = np.random.default_rng(3)
+    w, path = rng.uniform(0.0, 2.0, (5, k)), rng.uniform(0.1, 9.0, (5, k))
+    s, offset = 0.2678, rng.normal(0.0, 0.05, 5)
+    explicit = lambda p: sum(w[:, r, None] * corr(p[:, r] * s + offset) for r in range(k))  # noqa: E731
+    np.testing.assert_allclose(corr.weighted_sum(w, path, s, offset), explicit(path), rtol=1e-13, atol=1e-13)
+    grad = jax.grad(lambda p: jnp.sum(corr.weighted_sum(w, p, s, offset)[:, 1]))(path)
+    np.testing.assert_allclose(grad, jax.grad(lambda p: jnp.sum(explicit(p)[:, 1]))(path), rtol=1e-11, atol=1e-11)

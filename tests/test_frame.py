@@ -108,6 +108,70 @@ def test_monte_carlo_frames_match_the_analytic_noise_image(params, one_ray):
         np.testing.assert_allclose(frames.amplitude_lsb, sampled.amplitude_lsb, rtol=1e-14, atol=0)
 
 
+def test_a_prepared_camera_is_the_frame_functions_on_every_scene(params, one_ray):
+    """prepare_camera once, then scene after scene: the same frames, noise image, analytic frame and
+    render as the functions of (params, settings, returns), which prepare the camera on every call;
+    also inside a jit of the user's, vmapped over scenes (the camera closed over), and with the
+    camera prepared inside a gradient (d noise / d integration time against finite differences)."""
+    pattern = tj.draw_pattern(params, tj.FrameSettings(prnu_sigma=0.02, phase_offset_sigma_rad=0.01), (ROWS, COLS))
+    camera = tj.prepare_camera(params, one_ray, pattern)
+    assert camera.shape == (ROWS, COLS)
+    walls = [tj.scene_returns(params, one_ray, scenes.tilted_plane(d, 20.0)) for d in (1.1, 1.6)]
+    for returns in walls:
+        key = jax.random.key(4)
+        np.testing.assert_array_equal(camera.sample(returns, key, 2).radial_m,
+                                      tj.sample_frame(params, one_ray, returns, key, 2, pattern=pattern).radial_m)
+        np.testing.assert_array_equal(camera.noise_image(returns), tj.noise_image(params, one_ray, returns, pattern))
+        a, b = camera.predict(returns), tj.predict_frame(params, one_ray, returns, pattern)
+        for name in ("radial_m", "depth_std_m", "amplitude_lsb", "intensity_e", "flags", "z_m"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+        np.testing.assert_array_equal(camera.render(returns, key, 3).depth_std_m,
+                                      tj.render_frame(params, one_ray, returns, key, 3, pattern=pattern).depth_std_m)
+    distances = jnp.array([1.1, 1.6])
+    batch = jax.jit(jax.vmap(lambda d: camera.noise_image(tj.scene_returns(params, one_ray, scenes.tilted_plane(d, 20.0)))))
+    np.testing.assert_allclose(batch(distances), np.stack([camera.noise_image(r) for r in walls]), rtol=1e-12)
+
+    returns = walls[0]
+
+    def noise(t):
+        p = eqx.tree_at(lambda q: q.scene.integration_time_s, params, t)
+        return tj.prepare_camera(p, one_ray, pattern).noise_image(returns)[CENTRE]
+
+    t0 = float(params.scene.integration_time_s)
+    g, h = float(jax.grad(noise)(t0)), 1e-4 * t0
+    fd = (float(noise(t0 + h)) - float(noise(t0 - h))) / (2 * h)
+    assert g < 0.0 and abs(g - fd) <= 1e-5 * abs(fd), (g, fd)
+    # Refused in one line, before any work.
+    with pytest.raises(TypeError, match=r"^returns must be tofjax.Returns, got NoneType$"):
+        camera.noise_image(None)
+    narrower = eqx.tree_at(lambda q: q.camera.optical_area_m, params, jnp.array([(COLS - 2) * PITCH, ROWS * PITCH]))
+    other = tj.scene_returns(narrower, one_ray, scenes.wall(1.0))
+    with pytest.raises(ValueError, match=rf"^the returns have {ROWS} x {COLS - 2} pixels, the camera {ROWS} x {COLS} "):
+        camera.sample(other, jax.random.key(0))
+    with pytest.raises(TypeError, match=r"^pattern must be a tofjax.PixelPattern or None, got float$"):
+        tj.prepare_camera(params, one_ray, 0.5)
+
+
+def test_the_pixel_field_in_closed_form_is_the_rays(params):
+    """cos of the field angle, image height and unit direction per pixel without the rays' norm:
+    the rays' numbers (the same formula written out; to rounding), unit length, (0, 0, 1) on the axis."""
+    from tofjax._scene import pixel_directions, pixel_field
+
+    settings = tj.FrameSettings(subpixel_samples=1)
+    rays = tj.frame_rays(params, settings)
+    field = pixel_field(params.camera, (ROWS, COLS))
+    direction = np.asarray(pixel_directions(params.camera, (ROWS, COLS)))
+    np.testing.assert_allclose(field.cos_field_angle, rays.cos_field_angle, rtol=1e-15)
+    np.testing.assert_allclose(field.image_height, rays.image_height, rtol=1e-15)
+    np.testing.assert_allclose(direction, np.asarray(rays.samples)[:, :, 0], rtol=1e-15, atol=1e-17)
+    np.testing.assert_allclose(np.linalg.norm(direction, axis=-1), 1.0, rtol=1e-15)
+    np.testing.assert_array_equal(direction[CENTRE], [0.0, 0.0, 1.0])
+    # The corner pixel's field angle from the geometry alone: tan = (half diagonal - half a pitch) / f.
+    f = float(tj.lens(params.camera).focal_length_m)
+    x, y = (COLS - 1) / 2 * PITCH, (ROWS - 1) / 2 * PITCH
+    assert float(field.cos_field_angle[0, 0]) == pytest.approx(f / np.sqrt(x * x + y * y + f * f), rel=1e-15)
+
+
 def test_frames_sampled_in_several_chunks_are_the_kept_frames(params, one_ray, monkeypatch):
     """More frames than a chunk holds: ``sample`` draws them chunk by chunk (here 3 chunks of 2 for 5
     frames), and frame k is still frame k of the key (the frames ``render`` keeps, drawn at once)."""
@@ -121,8 +185,8 @@ def test_frames_sampled_in_several_chunks_are_the_kept_frames(params, one_ray, m
     np.testing.assert_array_equal(sampled.valid, valid)
     np.testing.assert_allclose(sampled.radial_m, np.where(valid, kept.frames_radial_m, np.nan), rtol=1e-15, atol=0)
     np.testing.assert_allclose(sampled.amplitude_lsb, kept.result.amplitude_lsb.transpose(2, 0, 1), rtol=1e-15, atol=0)
-    # tj.sample_frame as a large frame runs it (the constants a program of their own): the same frames.
-    monkeypatch.setattr(_frame, "FUSED_SAMPLE_ELEMENTS", 0)
+    # tj.sample_frame in several chunks (the frames' constants made once from the exposure, then the
+    # chunks drawn from them; one chunk makes them as it draws): the same frames.
     direct = tj.sample_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(1.3, 0.9)),
                              jax.random.key(1), 5)
     np.testing.assert_array_equal(direct.valid, valid)

@@ -46,9 +46,12 @@ _EXPORTS = {
     "get_leaf": "_leaves", "set_leaves": "_leaves", "jit": "_jit",
     "SPEED_OF_LIGHT_M_PER_S": "_constants",
     "PRESETS": "_presets", "Preset": "_presets", "preset_config": "_presets", "preset_text": "_presets",
-    "FrameSettings": "_frame", "FrameResult": "_frame", "FLAGS": "_frame", "frame_shape": "_frame",
-    "frame_rays": "_frame", "scene_returns": "_frame", "depth_returns": "_frame", "predict_frame": "_frame", "noise_image": "_frame",
-    "render_frame": "_frame", "sample_frame": "_frame", "prepare_frame": "_frame", "PreparedFrame": "_frame", "NoisyFrames": "_frame", "sharded_map": "_frame", "pixel_etendue_m2_sr": "_frame",
+    "FrameSettings": "_framegeometry", "frame_shape": "_framegeometry", "frame_rays": "_framegeometry",
+    "scene_returns": "_framegeometry", "depth_returns": "_framegeometry", "pixel_etendue_m2_sr": "_framegeometry",
+    "FrameResult": "_frame", "FLAGS": "_frame", "predict_frame": "_frame", "noise_image": "_frame",
+    "render_frame": "_frame", "sample_frame": "_frame", "prepare_frame": "_frame", "PreparedFrame": "_frame",
+    "NoisyFrames": "_frame", "sharded_map": "_frame", "prepare_camera": "_frame", "PreparedCamera": "_frame",
+    "FrameExposure": "_frame",
     "Returns": "_returns", "save_returns": "_returns", "load_returns": "_returns",
     "PixelPattern": "_pattern", "draw_pattern": "_pattern", "mean_pattern": "_pattern",
 }
@@ -89,9 +92,10 @@ def explorer(config=None):
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from . import frameio, plots, progress, report, scenes, schema, stats, sweepfile  # noqa: F401
     from ._frame import (  # noqa: F401
-        FLAGS, FrameResult, FrameSettings, NoisyFrames, PreparedFrame, depth_returns, frame_rays, frame_shape,
-        noise_image, pixel_etendue_m2_sr, predict_frame, prepare_frame, render_frame, sample_frame, scene_returns,
-        sharded_map)
+        FLAGS, FrameExposure, FrameResult, NoisyFrames, PreparedCamera, PreparedFrame, noise_image, predict_frame,
+        prepare_camera, prepare_frame, render_frame, sample_frame, sharded_map)
+    from ._framegeometry import (  # noqa: F401
+        FrameSettings, depth_returns, frame_rays, frame_shape, pixel_etendue_m2_sr, scene_returns)
     from ._pattern import PixelPattern, draw_pattern, mean_pattern  # noqa: F401
     from ._returns import Returns, load_returns, save_returns  # noqa: F401
     from ._analytic import predict  # noqa: F401

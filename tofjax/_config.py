@@ -55,7 +55,7 @@ class Config:
     def frame(self):
         """The ``[frame]`` section as :class:`tofjax.FrameSettings` (the array's optics and fixed
         pattern, for :func:`tofjax.predict_frame` and :func:`tofjax.render_frame`)."""
-        from ._frame import frame_settings
+        from ._framegeometry import frame_settings
 
         return frame_settings(self.values["frame"])
 

@@ -3,18 +3,18 @@ docs/model.md, "Full frames").
 
 A frame is the chain of :mod:`tofjax._chain` run with one operating point per pixel. Only the
 exposure differs from the centre pixel's: each pixel collects the returns of its scene
-(:mod:`tofjax._returns`) through the lens, with the camera equation's relative illumination,
+(:mod:`tofjax._returns`) through the lens, with the camera equation's relative illumination
+(:mod:`tofjax._framegeometry`), the mixer sorts each return by its own delay (the phasors of several
+returns add), the fixed pattern (:mod:`tofjax._pattern`) scales, shifts and splits the charges and
+sets each pixel's full well, and from there noise, SBI, saturation, ADC and demodulation are the
+centre pixel's, per pixel: :func:`predict_frame` walks them with means and variances (the per-pixel
+noise image), :func:`render_frame` and :func:`sample_frame` with Monte Carlo frames.
 
-    flux = L x pi A_pixel k_lens cos^m(phi) (1 - v h^2) / (4 N^2)                    (Eqs 3.5-3.11)
-
-(L the radiance the pixel sees, phi its field angle, m = ``frame.relative_illumination_exponent``,
-h its image height over the half diagonal, v = ``frame.vignetting``, N the f-number); on the axis
-and with L = rho E / pi this is the thesis' rho E FF A k_lens / (4 N^2). The mixer sorts each return
-by its own delay (the phasors of several returns add), the fixed pattern (:mod:`tofjax._pattern`)
-scales, shifts and splits the charges and sets each pixel's full well, and from there noise, SBI,
-saturation, ADC and demodulation are the centre pixel's, per pixel: :func:`predict_frame` walks
-them with means and variances (the per-pixel noise image), :func:`render_frame` with Monte Carlo
-frames.
+What does not depend on the scene (the chain, each pixel's conversion of radiance to electrons, its
+dark electrons) is a :class:`PreparedCamera`, computed once by :func:`prepare_camera`; what does not
+depend on the frames' noise (a scene's charges and the frames' per-pixel constants) is a
+:class:`PreparedFrame`. The functions of ``(params, settings, returns)`` prepare the camera on every
+call.
 """
 
 from __future__ import annotations
@@ -30,17 +30,20 @@ from jaxtyping import Array, Float, PRNGKeyArray
 from . import _jit
 from ._analytic import analytic, moments
 from ._chain import Chain, build_chain
-from ._frames import draw_frames, drive_blocks, equal_parts, point_constants
+from ._correlation import UNROLLED_RETURNS
+from ._framegeometry import FrameSettings, frame_shape, pixel_etendue_m2_sr
+from ._frames import PointCharges, draw_frames, drive_blocks, equal_parts
 from ._mixer import TapCharges, scene_photon_irradiance
 from ._montecarlo import Prepared, assemble, assemble_jit, check_counts, frames_step, run_blocks
 from ._noise import dark_electrons
 from ._optics import photon_energy_j, quantum_efficiency
-from ._params import Params, _check, _float, _static
+from ._params import Params
 from ._pattern import PixelPattern, mean_pattern
 from ._random import key_words
+from ._reduce import sum_by_slices
 from ._result import Result
-from ._returns import Returns, direct_returns, two_bounce_returns
-from ._scene import Rays, SceneGeometry, pixel_rays, resolution, surface, surface_from_depth
+from ._returns import Returns
+from ._scene import pixel_directions, pixel_field
 from ._smooth import Smooth
 from ._sweep import Sweep
 from ._waveforms import waveform_mean
@@ -58,121 +61,176 @@ FLAGS = {
 LOW_SIGNAL_PHASE_STD_RAD = 0.3
 
 
-class FrameSettings(eqx.Module):
-    """The ``[frame]`` section: the array's optics and its fixed-pattern sigmas (schema docs).
+class FrameExposure(eqx.Module):
+    """What every pixel collected in each phase image, before the taps split it (Eqs 3.19-3.21):
+    ``(rows, cols)`` leading axes. :meth:`charges` makes the taps' :class:`~tofjax._mixer.TapCharges`
+    from it elementwise.
 
-    ``subpixel_samples`` and ``seed`` are static; the rest are traced float leaves (a gradient
-    reaches them).
+    The frame's programs hand this on rather than the tap charges: both taps read the modulated
+    sum, and XLA on a CPU does not duplicate its table lookups into two consumers; it materialises
+    every return's gathered table row instead (nine 38528 x 16 arrays for 224 x 172 pixels: the
+    exposure took 18 ms instead of 5). Materialised once, as this program's output, it is read by
+    both.
+
+    **Fields:** ``modulated_e`` ``(rows, cols, phases)``: K sum_r N_r a_j(delay_r), the modulated
+    electrons tap A collects (K the demodulation contrast, N_r the active electrons of return r);
+    ``signal_e``: sum_r N_r; ``background_e``; ``contrast``: K; ``tap_asymmetry``: e, tap A
+    collecting 1 + e and tap B 1 - e of the photo charge; ``dark_a_e``, ``dark_b_e``.
     """
 
-    subpixel_samples: int = _static("frame", "subpixel_samples")
-    illumination_falloff_exponent: Float[Array, ""] = _float("frame", "illumination_falloff_exponent")
-    baseline_m: Float[Array, "2"] = _float("frame", "baseline_m")
-    relative_illumination_exponent: Float[Array, ""] = _float("frame", "relative_illumination_exponent")
-    vignetting: Float[Array, ""] = _float("frame", "vignetting")
-    prnu_sigma: Float[Array, ""] = _float("frame", "prnu_sigma")
-    phase_offset_sigma_rad: Float[Array, ""] = _float("frame", "phase_offset_sigma_rad")
-    tap_asymmetry_sigma: Float[Array, ""] = _float("frame", "tap_asymmetry_sigma")
-    threshold_sigma: Float[Array, ""] = _float("frame", "threshold_sigma")
-    seed: int = _static("frame", "seed")
+    modulated_e: Float[Array, "rows cols phases"]
+    signal_e: Float[Array, "rows cols"]
+    background_e: Float[Array, "rows cols"]
+    contrast: Float[Array, ""]
+    tap_asymmetry: Float[Array, "rows cols"]
+    dark_a_e: Float[Array, "rows cols"]
+    dark_b_e: Float[Array, "rows cols"]
 
-    def __check_init__(self):
-        _check(self, "frame")
-
-
-def frame_settings(values) -> FrameSettings:
-    """The :class:`FrameSettings` of a configuration's ``[frame]`` values (a mapping)."""
-    return FrameSettings(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in values.items()})
+    def charges(self) -> TapCharges:
+        """The taps' expected electrons: K N a_j plus half of (1 - K) N and of the background to
+        tap A, the rest of K N plus the same halves to tap B (Eqs 3.19-3.21), scaled by 1 +- e."""
+        m = self.modulated_e
+        equal = (0.5 * (1.0 - self.contrast) * self.signal_e + 0.5 * self.background_e)[..., None]
+        photo_a = (m + equal) * (1.0 + self.tap_asymmetry)[..., None]
+        photo_b = (self.contrast * self.signal_e[..., None] - m + equal) * (1.0 - self.tap_asymmetry)[..., None]
+        return TapCharges(photo_a, photo_b, self.dark_a_e, self.dark_b_e, self.signal_e, self.background_e)
 
 
-def frame_shape(params: Params) -> tuple[int, int]:
-    """(rows, cols) of the pixel array (``camera.optical_area_m / camera.pixel_pitch_m``)."""
-    return resolution(params.camera)
+class PreparedCamera(eqx.Module):
+    """A camera prepared for frames once (:func:`prepare_camera`): everything of a frame that does
+    not depend on the scene, so that a scene's frames, noise image or analytic frame cost only its
+    exposure and the chain after it. What a simulated camera streaming a changing scene needs.
+
+    **Fields** (``(rows, cols)`` per pixel):
+    - ``chain``: the frame's chain (:func:`tofjax.build_chain`, each pixel's own full well);
+    - ``pattern``: the camera sample (:class:`tofjax.PixelPattern`);
+    - ``active_e_per_radiance``: active electrons per phase image and per unit of a return's
+      ``radiance_per_w`` (W m^-2 sr^-1 per W): peak power x the waveform's mean x the pixel's
+      etendue x its PRNU gain x t / (h c / lambda) x QE (the camera equation, :mod:`tofjax._framegeometry`);
+    - ``background_e_per_reflectivity``: background electrons per unit of a pixel's
+      ``ambient_reflectivity`` (the background photon irradiance / pi x etendue x gain x t x QE);
+    - ``dark_a_e``, ``dark_b_e``: each tap's dark electrons;
+    - ``direction``: each pixel's unit ray ``(rows, cols, 3)``.
+
+    The methods take a scene's :class:`tofjax.Returns` and work under ``jit``, ``vmap`` and ``grad``
+    like the functions they share their programs with (:func:`sample_frame` is
+    ``prepare_camera(...).sample(...)``, and so on).
+    """
+
+    chain: Chain
+    pattern: PixelPattern
+    active_e_per_radiance: Float[Array, "rows cols"]
+    background_e_per_reflectivity: Float[Array, "rows cols"]
+    dark_a_e: Float[Array, "rows cols"]
+    dark_b_e: Float[Array, "rows cols"]
+    direction: Float[Array, "rows cols 3"]
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return tuple(self.dark_a_e.shape)
+
+    def expose(self, returns: Returns) -> FrameExposure:
+        """Every pixel's :class:`FrameExposure` of a scene, at the camera's illuminance and
+        integration time: each return sorted by the mixer with its own delay f path / c (Eq 3.22)
+        plus the pixel's phase offset, the returns' phasors added (Eqs 3.19-3.21)."""
+        return self._with_camera(*self._scene_light(returns))
+
+    def _scene_light(self, returns: Returns) -> tuple[Array, Array, Array]:
+        """What of the exposure depends on the scene: (modulated, signal, background) electrons."""
+        params = self.chain.params
+        per_return = returns.radiance_per_w * self.active_e_per_radiance[..., None]  # (rows, cols, k)
+        periods_per_m = params.illumination_waveform.modulation_frequency_hz / params.constants.speed_of_light_m_per_s
+        modulated = params.pixel.demodulation_contrast * self.chain.correlation.weighted_sum(
+            per_return, returns.path_m, periods_per_m, self.pattern.phase_offset_rad / (2.0 * jnp.pi))
+        return (modulated, sum_by_slices(per_return, -1, UNROLLED_RETURNS),
+                returns.ambient_reflectivity * self.background_e_per_reflectivity)
+
+    def _with_camera(self, modulated: Array, signal: Array, background: Array) -> FrameExposure:
+        return FrameExposure(modulated, signal, background, self.chain.params.pixel.demodulation_contrast,
+                             self.pattern.tap_asymmetry, self.dark_a_e, self.dark_b_e)
+
+    def _exposed(self, returns: Returns) -> FrameExposure:
+        """:meth:`expose` as a program of its own, which returns only what depends on the scene (a
+        program's output that is one of its inputs is a copy)."""
+        return self._with_camera(*_scene_light(self, returns))
+
+    def sample(self, returns: Returns, key: PRNGKeyArray, frames: int = 1) -> NoisyFrames:
+        """``frames`` noisy frames of a scene (:func:`sample_frame`): radial distance, amplitude and
+        validity, ``(frames, rows, cols)``."""
+        self._check(returns)
+        check_counts(frames, frames, math.prod(self.shape), self.chain.n_phases)
+        return _sample_charges(self.chain, self._exposed(returns), key, frames, self.shape)
+
+    def noise_image(self, returns: Returns) -> Float[Array, "rows cols"]:
+        """A scene's noise image (:func:`noise_image`): each pixel's analytic standard deviation of
+        its radial distance, m."""
+        self._check(returns)
+        return _noise_image_prepared(self.chain, returns.radial_m, self._exposed(returns))
+
+    def predict(self, returns: Returns) -> FrameResult:
+        """A scene's analytic frame (:func:`predict_frame`)."""
+        self._check(returns)
+        result = _predict_prepared(self.chain, returns.radial_m, self._exposed(returns))
+        return FrameResult(result, returns.radial_m, self.direction, self.pattern)
+
+    def prepare(self, returns: Returns) -> PreparedFrame:
+        """A scene exposed once (:func:`prepare_frame`)."""
+        self._check(returns)
+        sweep, charges, consts = _charges_and_constants(self.chain, returns.radial_m, self._exposed(returns))
+        return PreparedFrame(self.chain, sweep, Prepared(charges, consts), returns.radial_m, self.direction, self.pattern)
+
+    def render(self, returns: Returns, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0,
+               progress: bool = False) -> FrameResult:
+        """Monte Carlo frames of a scene and their statistics (:func:`render_frame`)."""
+        self._check(returns)
+        check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases)
+        return self.prepare(returns).render(key, frames, keep_frames=keep_frames, progress=progress)
+
+    def _check(self, returns) -> None:
+        if not isinstance(returns, Returns):
+            raise TypeError(f"returns must be tofjax.Returns, got {type(returns).__name__}")
+        if tuple(returns.shape) != self.shape:
+            raise ValueError(f"the returns have {returns.shape[0]} x {returns.shape[1]} pixels, the camera "
+                             f"{self.shape[0]} x {self.shape[1]} (rows x cols)")
 
 
-def frame_rays(params: Params, settings: FrameSettings, subpixel_samples: int | None = None,
-               shape: tuple[int, int] | None = None) -> Rays:
-    """The rays of every pixel of the camera (``subpixel_samples``: per axis, default the settings';
-    ``shape``: (rows, cols), default the camera's, which needs concrete camera values)."""
-    s = settings.subpixel_samples if subpixel_samples is None else subpixel_samples
-    return pixel_rays(params.camera, frame_shape(params) if shape is None else shape, s)
-
-
-@_jit.jit
-def _scene_returns(params, settings, geometry, sun_direction, bins, shape):
-    rays = frame_rays(params, settings, shape=shape)
-    surf = surface(geometry, rays, sun_direction)
-    out = direct_returns(params.illumination, settings.illumination_falloff_exponent, settings.baseline_m, surf, rays)
-    if geometry.patches is not None:
-        out = out + two_bounce_returns(params.illumination, settings.illumination_falloff_exponent,
-                                       settings.baseline_m, surf, rays, geometry.patches, bins)
-    return out
-
-
-def scene_returns(params: Params, settings: FrameSettings, geometry: SceneGeometry, *, sun_direction=None,
-                  bins: int = 32) -> Returns:
-    """Every pixel's returns from a scene: the direct return of each sub-pixel ray and, for a scene
-    with patches (:func:`tofjax.scenes.corner`), its two-bounce light in ``bins`` returns.
-    ``sun_direction``: the background light's direction (:func:`tofjax._scene.surface`)."""
-    sun = None if sun_direction is None else jnp.asarray(sun_direction, dtype=float)
-    return _scene_returns(params, settings, geometry, sun, bins, frame_shape(params))
-
-
-def depth_returns(params: Params, settings: FrameSettings, depth_m, reflectivity, *, radial: bool = False) -> Returns:
-    """Every pixel's direct return from a depth map ``(rows, cols)`` (Z depth, or the radial
-    distance with ``radial=True``) and a reflectivity map or number; one ray per pixel."""
-    shape = frame_shape(params)
-    depth = jnp.asarray(depth_m, dtype=float)
-    if depth.shape != shape:
-        raise ValueError(f"depth map has shape {depth.shape}, the camera {shape} (rows, cols; "
-                         "camera.optical_area_m / camera.pixel_pitch_m)")
-    return _depth_returns(params, settings, depth, jnp.asarray(reflectivity, dtype=float), radial, depth.shape)
-
-
-@_jit.jit
-def _depth_returns(params, settings, depth, reflectivity, radial, shape):
-    rays = frame_rays(params, settings, 1, shape)
-    surf = surface_from_depth(depth, reflectivity, rays, radial)
-    return direct_returns(params.illumination, settings.illumination_falloff_exponent, settings.baseline_m, surf, rays)
-
-
-def pixel_etendue_m2_sr(params: Params, settings: FrameSettings, rays: Rays) -> Float[Array, "rows cols"]:
-    """pi A_pixel FF k_lens cos^m(phi) (1 - v h^2) / (4 N^2): the flux on a pixel per unit radiance
-    of what it sees (module docstring), m^2 sr."""
-    cam = params.camera
-    area = cam.pixel_pitch_m[0] * cam.pixel_pitch_m[1] * cam.fill_factor
-    relative = rays.cos_field_angle ** settings.relative_illumination_exponent
-    vignette = 1.0 - settings.vignetting * rays.image_height**2
-    return jnp.pi * area * cam.k_lens * relative * vignette / (4.0 * cam.f_number**2)
-
-
-def frame_charges(chain: Chain, settings: FrameSettings, returns: Returns, pattern: PixelPattern,
-                  rays: Rays | None = None) -> TapCharges:
-    """Expected tap electrons of every pixel at the scene's nominal illuminance and integration
-    time: ``(rows, cols, phases)`` (module docstring); ``rays``: the pixels' centre rays, if made."""
-    params = chain.params
+def _camera(params: Params, settings: FrameSettings, pattern: PixelPattern | None, smooth: Smooth | None,
+            shape: tuple[int, int], chain: Chain | None = None) -> PreparedCamera:
+    """The :class:`PreparedCamera` of ``params`` (``chain``: the frame's chain, if built)."""
+    pattern = _pattern(params, shape, pattern)
+    chain = _frame_chain(params, smooth, math.prod(shape), pattern) if chain is None else chain
     scene, ill, consts, pixel = params.scene, params.illumination, params.constants, params.pixel
     t = scene.integration_time_s
-    rays = frame_rays(params, settings, 1, returns.shape) if rays is None else rays
-    per_radiance = pixel_etendue_m2_sr(params, settings, rays) * pattern.gain  # flux per radiance, m^2 sr
+    per_radiance = pixel_etendue_m2_sr(params, settings, pixel_field(params.camera, shape)) * pattern.gain  # m^2 sr
     qe = quantum_efficiency(pixel, ill.wavelength_m, consts)
     emitted = ill.peak_power_w * waveform_mean(params.illumination_waveform)
-    to_electrons = t / photon_energy_j(ill.wavelength_m, consts) * qe  # per joule
-    per_return = emitted * returns.radiance_per_w * (per_radiance * to_electrons)[..., None]  # (rows, cols, k)
-    background = scene_photon_irradiance(params, scene.illuminance_lx) * returns.ambient_reflectivity / jnp.pi \
-        * per_radiance * t * qe
-    # Each return's delay f * path / c in periods (Eq 3.22), plus the pixel's phase offset.
-    delay = params.illumination_waveform.modulation_frequency_hz * returns.path_m / consts.speed_of_light_m_per_s
-    a = chain.correlation(delay + (pattern.phase_offset_rad / (2.0 * jnp.pi))[..., None])  # (rows, cols, k, phases)
-    contrast = pixel.demodulation_contrast
-    signal = jnp.sum(per_return, axis=-1)
-    modulated = contrast * jnp.einsum("rck,rckp->rcp", per_return, a)  # the returns' phasors add (Eqs 3.19-3.21)
-    equal = (0.5 * (1.0 - contrast) * signal + 0.5 * background)[..., None]
-    photo_a = (modulated + equal) * (1.0 + pattern.tap_asymmetry)[..., None]
-    photo_b = (contrast * signal[..., None] - modulated + equal) * (1.0 - pattern.tap_asymmetry)[..., None]
-    dark_a = dark_electrons(pixel, t, consts, pattern.dark_slope_a_v_per_s)
-    dark_b = dark_electrons(pixel, t, consts, pattern.dark_slope_b_v_per_s)
-    return TapCharges(photo_a, photo_b, dark_a, dark_b, signal, background)
+    active = emitted * per_radiance * (t / photon_energy_j(ill.wavelength_m, consts) * qe)
+    background = scene_photon_irradiance(params, scene.illuminance_lx) / jnp.pi * per_radiance * t * qe
+    return PreparedCamera(chain, pattern, active, background,
+                          dark_electrons(pixel, t, consts, pattern.dark_slope_a_v_per_s),
+                          dark_electrons(pixel, t, consts, pattern.dark_slope_b_v_per_s),
+                          pixel_directions(params.camera, shape))
+
+
+def prepare_camera(params: Params, settings: FrameSettings, pattern: PixelPattern | None = None, *,
+                   smooth: Smooth | None = None) -> PreparedCamera:
+    """Prepare a camera for frames once (:class:`PreparedCamera`): its chain, each pixel's
+    conversion of radiance to electrons and its dark electrons. Its methods then expose scenes
+    (``sample``, ``noise_image``, ``predict``, ``prepare``, ``render``), each call costing only the
+    scene's exposure and the chain after it. Arguments as :func:`predict_frame`."""
+    _check_camera(params, settings, pattern)
+    return _prepare_camera(params, settings, pattern, smooth, frame_shape(params))
+
+
+def frame_exposure(chain: Chain, settings: FrameSettings, returns: Returns, pattern: PixelPattern) -> FrameExposure:
+    """Every pixel's :class:`FrameExposure` on the frame's ``chain`` (:meth:`PreparedCamera.expose`)."""
+    return _camera(chain.params, settings, pattern, None, returns.shape, chain).expose(returns)
+
+
+def frame_charges(chain: Chain, settings: FrameSettings, returns: Returns, pattern: PixelPattern) -> TapCharges:
+    """Expected tap electrons of every pixel at the scene's nominal illuminance and integration
+    time: ``(rows, cols, phases)`` (module docstring)."""
+    return frame_exposure(chain, settings, returns, pattern).charges()
 
 
 class FrameResult(eqx.Module):
@@ -256,55 +314,41 @@ def _frame_chain(params: Params, smooth: Smooth | None, points: int, pattern: Pi
     return eqx.tree_at(lambda c: c.limit.full_well_e, chain, well)
 
 
-def _sweep(params: Params, returns: Returns) -> Sweep:
-    """One operating point per pixel: its true distance (half the path where it meets nothing, for
-    the record only: the exposure comes from the returns) at the scene's illuminance and time."""
-    d = jnp.where(jnp.isfinite(returns.radial_m), returns.radial_m, 0.5 * params.unambiguity_range_m)
-    return Sweep("distance", d)
+def _sweep(params: Params, radial_m: Array | Sweep) -> Sweep:
+    """One operating point per pixel: its true distance (half the unambiguity range where it meets
+    nothing, for the record only: the exposure comes from the returns) at the scene's illuminance and
+    time (a :class:`tofjax.Sweep` passes as it is)."""
+    if isinstance(radial_m, Sweep):
+        return radial_m
+    return Sweep("distance", jnp.where(jnp.isfinite(radial_m), radial_m, 0.5 * params.unambiguity_range_m))
 
 
 def _pattern(params: Params, shape, pattern: PixelPattern | None) -> PixelPattern:
     return mean_pattern(params, shape) if pattern is None else pattern
 
 
-def _check_frame(params, settings, returns):
+def _check_camera(params, settings, pattern) -> None:
     if not isinstance(params, Params):
         raise TypeError(f"params must be a tofjax.Params, got {type(params).__name__}")
     if not isinstance(settings, FrameSettings):
         raise TypeError(f"settings must be a tofjax.FrameSettings, got {type(settings).__name__}")
-    if not isinstance(returns, Returns):
-        raise TypeError(f"returns must be tofjax.Returns, got {type(returns).__name__}")
-    if tuple(returns.shape) != frame_shape(params):
-        raise ValueError(f"the returns have {returns.shape[0]} x {returns.shape[1]} pixels, the camera "
-                         f"{frame_shape(params)[0]} x {frame_shape(params)[1]} (rows x cols)")
+    if pattern is not None and not isinstance(pattern, PixelPattern):
+        raise TypeError(f"pattern must be a tofjax.PixelPattern or None, got {type(pattern).__name__}")
 
 
-def _setup(params, settings, returns, pattern, smooth):
-    """What both paths need: the pattern, the frame's chain, one operating point per pixel, the
-    expected charges and the pixels' centre rays (computed once)."""
-    shape = returns.shape
-    pattern = _pattern(params, shape, pattern)
-    chain = _frame_chain(params, smooth, math.prod(shape) * returns.path_m.shape[-1], pattern)
-    rays = frame_rays(params, settings, 1, shape)
-    charges = frame_charges(chain, settings, returns, pattern, rays)
-    return pattern, chain, _sweep(params, returns), charges, rays.centre
-
-
-@_jit.jit
-def _predict_frame(params, settings, returns, pattern, smooth):
-    pattern, chain, sweep, charges, direction = _setup(params, settings, returns, pattern, smooth)
-    result = analytic(chain, sweep, moments(chain, sweep, charges))
-    return FrameResult(result, returns.radial_m, direction, pattern)
+def _tap_charges(exposed: FrameExposure | TapCharges) -> TapCharges:
+    """The tap charges of a :class:`FrameExposure` (made inside the program that reads them), or
+    the charges themselves."""
+    return exposed.charges() if isinstance(exposed, FrameExposure) else exposed
 
 
 def noise_image(params: Params, settings: FrameSettings, returns: Returns, pattern: PixelPattern | None = None, *,
                 smooth: Smooth | None = None) -> Float[Array, "rows cols"]:
     """The per-pixel noise image of a scene: the analytic standard deviation of each pixel's radial
     distance, m (``predict_frame(...).depth_std_m``, arguments as :func:`predict_frame`), computing
-    nothing else. Of a scene exposed once, :meth:`PreparedFrame.noise_image` skips the exposure."""
-    _check_frame(params, settings, returns)
-    _, chain, sweep, charges, _ = _setup_jit(params, settings, returns, pattern, smooth)
-    return _noise_image_prepared(chain, sweep, charges)
+    nothing else. Several scenes on one camera: :func:`prepare_camera` once, then its
+    ``noise_image``; of a scene exposed once, :meth:`PreparedFrame.noise_image` skips the exposure."""
+    return prepare_camera(params, settings, pattern, smooth=smooth).noise_image(returns)
 
 
 def predict_frame(params: Params, settings: FrameSettings, returns: Returns, pattern: PixelPattern | None = None, *,
@@ -316,9 +360,44 @@ def predict_frame(params: Params, settings: FrameSettings, returns: Returns, pat
     set the operating point, the returns the geometry), ``settings`` (:class:`FrameSettings`),
     ``returns`` (:func:`scene_returns`, :func:`depth_returns` or :func:`tofjax.load_returns`),
     ``pattern`` (:func:`tofjax.draw_pattern`; ``None``: every pixel the mean pixel), ``smooth``.
+    The same camera on several scenes: :func:`prepare_camera` once, then its ``predict``.
     """
-    _check_frame(params, settings, returns)
-    return _predict_frame(params, settings, returns, pattern, smooth)
+    return prepare_camera(params, settings, pattern, smooth=smooth).predict(returns)
+
+
+def prepare_frame(params: Params, settings: FrameSettings, returns: Returns, pattern: PixelPattern | None = None, *,
+                  smooth: Smooth | None = None) -> PreparedFrame:
+    """Expose a scene once (arguments as :func:`predict_frame`): the :class:`PreparedFrame` renders
+    frames and the noise image of that scene and operating point without exposing it again."""
+    return prepare_camera(params, settings, pattern, smooth=smooth).prepare(returns)
+
+
+def render_frame(params: Params, settings: FrameSettings, returns: Returns, key: PRNGKeyArray, frames: int = 1, *,
+                 keep_frames: int = 0, pattern: PixelPattern | None = None, smooth: Smooth | None = None,
+                 progress: bool = False) -> FrameResult:
+    """Monte Carlo frames of a scene: ``frames`` noisy frames of every pixel through the chain
+    (:func:`tofjax.simulate` per pixel, the same random-number streams and chunking); the result
+    holds their per-pixel statistics (mean and standard deviation of the distance, amplitude,
+    valid fraction) and the first ``keep_frames`` frames whole (``FrameResult.frames_radial_m``).
+
+    Arguments as :func:`predict_frame`, plus ``key`` (a ``jax.random`` key; the same key gives the
+    same frames), ``frames`` and ``keep_frames`` (static) and ``progress``. Rendering the same
+    scene again (another key, more frames): :func:`prepare_frame` once, then its ``render``.
+    """
+    return prepare_camera(params, settings, pattern, smooth=smooth).render(
+        returns, key, frames, keep_frames=keep_frames, progress=progress)
+
+
+def sample_frame(params: Params, settings: FrameSettings, returns: Returns, key: PRNGKeyArray, frames: int = 1, *,
+                 pattern: PixelPattern | None = None, smooth: Smooth | None = None) -> NoisyFrames:
+    """Only noisy frames of a scene, exposed in the same call: ``frames`` frames' radial distance,
+    amplitude and validity, ``(frames, rows, cols)`` (:class:`NoisyFrames`), without the per-pixel
+    statistics of :func:`render_frame`. What a simulated camera streams when its scene changes every
+    frame (:func:`prepare_camera` once and its ``sample`` skip the camera's own constants; for a
+    static scene, :func:`prepare_frame` once and its ``sample`` skip the exposure too). Arguments as
+    :func:`render_frame`; the frames are those ``prepare_frame(...).sample(key, frames)`` returns (and
+    :func:`render_frame` keeps) for the same key."""
+    return prepare_camera(params, settings, pattern, smooth=smooth).sample(returns, key, frames)
 
 
 class PreparedFrame(eqx.Module):
@@ -378,11 +457,18 @@ class NoisyFrames(eqx.Module):
     valid: Array
 
 
-# Separate programs for the exposure, the frames' constants and the frames: in one, XLA on a CPU
+# Programs: the camera, the exposure, and what reads it, each its own program: in one, XLA on a CPU
 # fuses a producer into each of its consumers and evaluates it several times (one frame of 224 x 172
-# in one program: 32 ms). Under an outer jit they are traced into one program as usual.
-_setup_jit = _jit.jit(_setup)
+# in one program: 32 ms), and the exposure's sum over the returns has two (the taps; FrameExposure).
+# Under an outer jit they are traced into one program as usual.
+_prepare_camera = _jit.jit(_camera)
 _key_words_jit = _jit.jit(key_words)
+
+
+@_jit.jit
+def _scene_light(camera: PreparedCamera, returns: Returns) -> tuple[Array, Array, Array]:
+    return camera._scene_light(returns)
+
 
 #: Phase images per chunk of a frame's Monte Carlo (``run_blocks``' ``elements``): a whole 640 x 480
 #: frame of 4 phase images (1.2 M) is one block. On a CPU, XLA runs the loop over several blocks
@@ -392,21 +478,17 @@ _key_words_jit = _jit.jit(key_words)
 FRAME_CHUNK_ELEMENTS = 1 << 21
 
 
+def _point_charges(chain, exposed: FrameExposure | TapCharges) -> PointCharges:
+    """The pixels as the frames' points (flattened), each with its own full well; their charges are
+    made where the frames are drawn."""
+    n = math.prod(exposed.dark_a_e.shape if isinstance(exposed, FrameExposure) else exposed.dark_a.shape)
+    flat = jax.tree_util.tree_map(lambda x: x.reshape((n,) + x.shape[2:]) if x.ndim >= 2 else x, exposed)
+    return PointCharges(flat, jnp.arange(n, dtype=jnp.uint32), chain.limit.full_well_e.reshape(n))
+
+
 @_jit.jit
-def _frame_constants(chain, charges):
-    n = math.prod(charges.a.shape[:-1])
-    flat = jax.tree_util.tree_map(lambda x: x.reshape((n,) + x.shape[2:]), charges)
-    return point_constants(chain, flat, jnp.arange(n, dtype=jnp.uint32), chain.limit.full_well_e.reshape(n))
-
-
-def prepare_frame(params: Params, settings: FrameSettings, returns: Returns, pattern: PixelPattern | None = None, *,
-                  smooth: Smooth | None = None) -> PreparedFrame:
-    """Expose a scene once (arguments as :func:`predict_frame`): the :class:`PreparedFrame` renders
-    frames and the noise image of that scene and operating point without exposing it again."""
-    _check_frame(params, settings, returns)
-    pattern, chain, sweep, charges, direction = _setup_jit(params, settings, returns, pattern, smooth)
-    consts = _frame_constants(chain, charges)
-    return PreparedFrame(chain, sweep, Prepared(charges, consts), returns.radial_m, direction, pattern)
+def _charges_and_constants(chain, radial_m, exposure: FrameExposure):
+    return _sweep(chain.params, radial_m), exposure.charges(), _point_charges(chain, exposure).constants(chain)
 
 
 @_jit.jit
@@ -418,27 +500,35 @@ def _render_prepared(frame: PreparedFrame, key, frames, keep_frames, progress) -
 
 
 @_jit.jit
-def _predict_prepared(chain, sweep, charges) -> Result:
-    return analytic(chain, sweep, moments(chain, sweep, charges))
+def _predict_prepared(chain, sweep, exposed) -> Result:
+    """The analytic frame (``sweep``: the pixels' :class:`Sweep`, or their true distances)."""
+    sweep = _sweep(chain.params, sweep)
+    return analytic(chain, sweep, moments(chain, sweep, _tap_charges(exposed)))
 
 
 @_jit.jit
-def _noise_image_prepared(chain, sweep, charges) -> Array:
-    return analytic(chain, sweep, moments(chain, sweep, charges)).depth_std_m
+def _noise_image_prepared(chain, sweep, exposed) -> Array:
+    sweep = _sweep(chain.params, sweep)
+    return analytic(chain, sweep, moments(chain, sweep, _tap_charges(exposed))).depth_std_m
 
 
 @_jit.jit
-def _sample_prepared(chain, consts, key, frames, shape) -> NoisyFrames:
+def _sample_prepared(chain, source, key, frames, shape) -> NoisyFrames:
     # Frames first throughout (the frames :func:`run_blocks` keeps are points first): no transposes,
     # which cost more than the frames themselves (8 frames of 224 x 172: 19 of 35 ms). Chunks of
-    # frames as in run_blocks, in a lax.map when there are several.
+    # frames as in run_blocks, in a lax.map when there are several. ``source``: the pixels'
+    # PointConstants, or their PointCharges, from which one chunk makes the constants as it draws
+    # and several make them once.
     n, words = math.prod(shape), key_words(key)
     chunk = equal_parts(frames, FRAME_CHUNK_ELEMENTS // (n * chain.n_phases))
     n_chunks = -(-frames // chunk)
     to_m = chain.unambiguity_range_m / (2.0 * jnp.pi)
 
+    if n_chunks > 1:
+        source = source.constants(chain)
+
     def one(first):
-        f = draw_frames(chain, consts, words, first, chunk, frames_first=True)
+        f = draw_frames(chain, source, words, first, chunk, frames_first=True)
         valid = ~f.pixel_saturated & ~f.adc_saturated
         return jnp.where(valid, jnp.mod(f.phase, 2.0 * jnp.pi) * to_m, jnp.nan), f.amplitude, valid
 
@@ -450,52 +540,9 @@ def _sample_prepared(chain, consts, key, frames, shape) -> NoisyFrames:
     return NoisyFrames(*(x.reshape((frames, *shape)) for x in out))
 
 
-def sample_frame(params: Params, settings: FrameSettings, returns: Returns, key: PRNGKeyArray, frames: int = 1, *,
-                 pattern: PixelPattern | None = None, smooth: Smooth | None = None) -> NoisyFrames:
-    """Only noisy frames of a scene, exposed in the same call: ``frames`` frames' radial distance,
-    amplitude and validity, ``(frames, rows, cols)`` (:class:`NoisyFrames`), without the per-pixel
-    statistics of :func:`render_frame`. What a simulated camera streams when its scene changes every
-    frame (for a static scene, :func:`prepare_frame` once and its ``sample`` skip the exposure).
-    Arguments as :func:`render_frame`; the frames are those ``prepare_frame(...).sample(key, frames)``
-    returns (and :func:`render_frame` keeps) for the same key."""
-    _check_frame(params, settings, returns)
-    check_counts(frames, frames, math.prod(returns.shape), params.pixel.n_phases)
-    _, chain, _, charges, _ = _setup_jit(params, settings, returns, pattern, smooth)
-    if math.prod(returns.shape) * chain.n_phases <= FUSED_SAMPLE_ELEMENTS:
-        return _sample_charges(chain, charges, key, frames, returns.shape)
-    return _sample_prepared(chain, _frame_constants(chain, charges), key, frames, returns.shape)
-
-
-#: Phase images up to which :func:`sample_frame` computes the frames' constants and the frames in one
-#: program (XLA then leaves out the constants only the statistics use, the noise-free reference
-#: phase and amplitude): 224 x 172 (1.5e5) took 2.9 ms that way against 4.3 ms as two programs. A
-#: larger frame's constants are materialised by a program of their own first: in one program XLA
-#: re-reads the charges transposed in every fusion that uses them, and 640 x 480 (1.2e6) took 56-65
-#: ms against 30-34 ms as two.
-FUSED_SAMPLE_ELEMENTS = 1 << 19
-
-
 @_jit.jit
-def _sample_charges(chain, charges, key, frames, shape) -> NoisyFrames:
-    return _sample_prepared(chain, _frame_constants(chain, charges), key, frames, shape)
-
-
-def render_frame(params: Params, settings: FrameSettings, returns: Returns, key: PRNGKeyArray, frames: int = 1, *,
-                 keep_frames: int = 0, pattern: PixelPattern | None = None, smooth: Smooth | None = None,
-                 progress: bool = False) -> FrameResult:
-    """Monte Carlo frames of a scene: ``frames`` noisy frames of every pixel through the chain
-    (:func:`tofjax.simulate` per pixel, the same random-number streams and chunking); the result
-    holds their per-pixel statistics (mean and standard deviation of the distance, amplitude,
-    valid fraction) and the first ``keep_frames`` frames whole (``FrameResult.frames_radial_m``).
-
-    Arguments as :func:`predict_frame`, plus ``key`` (a ``jax.random`` key; the same key gives the
-    same frames), ``frames`` and ``keep_frames`` (static) and ``progress``. Rendering the same
-    scene again (another key, more frames): :func:`prepare_frame` once, then its ``render``.
-    """
-    _check_frame(params, settings, returns)
-    check_counts(frames, keep_frames, math.prod(returns.shape), params.pixel.n_phases)
-    return prepare_frame(params, settings, returns, pattern, smooth=smooth).render(
-        key, frames, keep_frames=keep_frames, progress=progress)
+def _sample_charges(chain, exposed, key, frames, shape) -> NoisyFrames:
+    return _sample_prepared(chain, _point_charges(chain, exposed), key, frames, shape)
 
 
 def sharded_map(fn, batch, *, devices=None):

@@ -64,6 +64,63 @@ class Rays(eqx.Module):
         return self.centre[..., 2]
 
 
+class PixelField(eqx.Module):
+    """Where each pixel centre lies in the field, what the camera equation's relative illumination
+    reads (:func:`tofjax.pixel_etendue_m2_sr`), without the rays' vectors.
+
+    **Fields:** ``cos_field_angle`` ``(rows, cols)``: cos of the angle between the pixel's centre
+    ray and the optical axis, f / sqrt(x^2 + y^2 + f^2); ``image_height`` ``(rows, cols)``: the pixel
+    centre's distance from the principal point over the half diagonal of the array.
+    """
+
+    cos_field_angle: Float[Array, "rows cols"]
+    image_height: Float[Array, "rows cols"]
+
+
+def _grid(shape: tuple[int, int]) -> tuple[Array, Array]:
+    """Pixel centres from the principal point, in pitches: columns ``(cols,)`` (+x, right) and rows
+    ``(rows,)`` (+y, up: row 0 at the top)."""
+    rows, cols = shape
+    return jnp.arange(cols, dtype=float) - 0.5 * (cols - 1), 0.5 * (rows - 1) - jnp.arange(rows, dtype=float)
+
+
+def _centres_m(camera: Camera, shape: tuple[int, int]) -> tuple[Array, Array]:
+    """Pixel centres on the array from the principal point, m: x ``(1, cols)``, y ``(rows, 1)``."""
+    col, row = _grid(shape)
+    return col[None, :] * camera.pixel_pitch_m[0], row[:, None] * camera.pixel_pitch_m[1]
+
+
+def _image_height(camera: Camera, shape: tuple[int, int], x: Array, y: Array) -> Array:
+    rows, cols = shape
+    return jnp.hypot(x, y) / (0.5 * jnp.hypot(cols * camera.pixel_pitch_m[0], rows * camera.pixel_pitch_m[1]))
+
+
+def _inverse_ray_length(x: Array, y: Array, f: Array) -> Array:
+    """1 / |(x, y, f)|, elementwise (no norm reduced over a stacked axis: XLA's CPU runs that as a
+    small single-threaded reduction)."""
+    return 1.0 / jnp.sqrt(x * x + y * y + f * f)
+
+
+def pixel_field(camera: Camera, shape: tuple[int, int]) -> PixelField:
+    """Each pixel's :class:`PixelField`, in closed form per pixel (the numbers of :func:`pixel_rays`'
+    ``cos_field_angle`` and ``image_height``, without its unit vectors)."""
+    f = lens(camera).focal_length_m
+    x, y = _centres_m(camera, shape)
+    return PixelField(f * _inverse_ray_length(x, y, f), _image_height(camera, shape, x, y))
+
+
+def _unit_rays(x: Array, y: Array, f: Array) -> Float[Array, "... 3"]:
+    """Unit vectors along (x, y, f): rays from the lens centre through points (x, y) of the array."""
+    x, y = jnp.broadcast_arrays(x, y)
+    inv = _inverse_ray_length(x, y, f)
+    return jnp.stack([x * inv, y * inv, f * inv], axis=-1)
+
+
+def pixel_directions(camera: Camera, shape: tuple[int, int]) -> Float[Array, "rows cols 3"]:
+    """Unit rays through the pixel centres, ``(rows, cols, 3)`` (:func:`pixel_rays`' ``centre``)."""
+    return _unit_rays(*_centres_m(camera, shape), lens(camera).focal_length_m)
+
+
 def pixel_rays(camera: Camera, shape: tuple[int, int], subpixel_samples: int = 1) -> Rays:
     """The rays of a ``shape = (rows, cols)`` array with ``subpixel_samples`` rays per pixel and axis."""
     rows, cols = shape
@@ -71,20 +128,11 @@ def pixel_rays(camera: Camera, shape: tuple[int, int], subpixel_samples: int = 1
     px, py = camera.pixel_pitch_m[0], camera.pixel_pitch_m[1]
     s = subpixel_samples
     sub = (jnp.arange(s, dtype=float) + 0.5) / s - 0.5  # offsets inside a pixel, in pitches
-    col = jnp.arange(cols, dtype=float) - 0.5 * (cols - 1)
-    row = 0.5 * (rows - 1) - jnp.arange(rows, dtype=float)  # row 0 at the top: +y
-
-    def directions(x, y):
-        v = jnp.stack(jnp.broadcast_arrays(x / f, y / f, jnp.ones_like(x / f)), axis=-1)
-        return v / jnp.linalg.norm(v, axis=-1, keepdims=True)
-
-    centre = directions(col[None, :] * px, row[:, None] * py)
+    col, row = _grid(shape)
     xs = (col[None, :, None, None] + sub[None, None, None, :]) * px  # (1, cols, 1, s)
     ys = (row[:, None, None, None] - sub[None, None, :, None]) * py  # (rows, 1, s, 1)
-    samples = directions(xs, ys).reshape(rows, cols, s * s, 3)
-    half_diag = 0.5 * jnp.hypot(cols * px, rows * py)
-    height = jnp.hypot(col[None, :] * px, row[:, None] * py) / half_diag
-    return Rays(centre, samples, height)
+    samples = _unit_rays(xs, ys, f).reshape(rows, cols, s * s, 3)
+    return Rays(pixel_directions(camera, shape), samples, _image_height(camera, shape, *_centres_m(camera, shape)))
 
 
 class Hit(eqx.Module):

@@ -74,7 +74,8 @@ def correlation_function(params, ax=None) -> Figure:
     n = params.pixel.n_phases
     # The model's series at 4096 + 1 delays over the period, by one inverse FFT (its table's values).
     table = correlation(params.illumination_waveform, params.reference_waveform, n, points=4096).table
-    a = np.asarray(table[:, :, 0])
+    a = np.asarray(table[:, :, 0])  # each cell's constant term: the value at its grid point
+    a = np.concatenate([a, a[:1]])  # and the period's end
     delay = np.linspace(0.0, 1.0, a.shape[0])  # reflection delay in periods
     for j, theta in enumerate(np.degrees(phase_steps(n))):
         ax.plot(delay * period_ns, a[:, j], label=f"a_{j} ({theta:g} deg)")

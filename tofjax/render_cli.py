@@ -165,10 +165,11 @@ def run(args) -> int:
     t1 = time.perf_counter()
     if not args.quiet:
         print(f"rendering {args.frames} frames of {rows} x {cols} pixels ...", file=sys.stderr, flush=True)
-    frame = jax.device_get(tj.render_frame(params, settings, returns, jax.random.key(args.seed), args.frames,
-                                           keep_frames=args.keep_frames, pattern=pattern, progress=not args.quiet))
+    scene = tj.prepare_frame(params, settings, returns, pattern)  # exposed once, for the frames and the analytic image
+    frame = jax.device_get(scene.render(jax.random.key(args.seed), args.frames, keep_frames=args.keep_frames,
+                                        progress=not args.quiet))
     t2 = time.perf_counter()
-    predicted = jax.device_get(tj.predict_frame(params, settings, returns, pattern))
+    predicted = jax.device_get(scene.predict())
     t3 = time.perf_counter()
     arrays = frameio.frame_arrays(frame, predicted)
     frameio.write_npz(args.out / "frame.npz", arrays)

@@ -1,0 +1,116 @@
+"""The pixel array's geometry for full frames (thesis §6.1.1, future work; docs/model.md, "Full
+frames"): the ``[frame]`` settings, the array's shape and rays, the camera equation's etendue per
+pixel, and the returns each pixel sees from a scene or a depth map (:mod:`tofjax._returns`).
+Nothing here runs the signal chain: :mod:`tofjax._frame` does, with what this module computes.
+
+The camera equation (Eqs 3.5-3.11, generalised off axis): a pixel collects the flux
+
+    flux = L x pi A_pixel FF k_lens cos^m(phi) (1 - v h^2) / (4 N^2)
+
+(L the radiance it sees, phi its field angle, m = ``frame.relative_illumination_exponent``, h its
+image height over the half diagonal, v = ``frame.vignetting``, N the f-number); on the axis and with
+L = rho E / pi this is the thesis' rho E FF A k_lens / (4 N^2).
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from . import _jit
+from ._params import Params, _check, _float, _static
+from ._returns import Returns, direct_returns, two_bounce_returns
+from ._scene import PixelField, Rays, SceneGeometry, pixel_field, pixel_rays, resolution, surface, surface_from_depth
+
+
+class FrameSettings(eqx.Module):
+    """The ``[frame]`` section: the array's optics and its fixed-pattern sigmas (schema docs).
+
+    ``subpixel_samples`` and ``seed`` are static; the rest are traced float leaves (a gradient
+    reaches them).
+    """
+
+    subpixel_samples: int = _static("frame", "subpixel_samples")
+    illumination_falloff_exponent: Float[Array, ""] = _float("frame", "illumination_falloff_exponent")
+    baseline_m: Float[Array, "2"] = _float("frame", "baseline_m")
+    relative_illumination_exponent: Float[Array, ""] = _float("frame", "relative_illumination_exponent")
+    vignetting: Float[Array, ""] = _float("frame", "vignetting")
+    prnu_sigma: Float[Array, ""] = _float("frame", "prnu_sigma")
+    phase_offset_sigma_rad: Float[Array, ""] = _float("frame", "phase_offset_sigma_rad")
+    tap_asymmetry_sigma: Float[Array, ""] = _float("frame", "tap_asymmetry_sigma")
+    threshold_sigma: Float[Array, ""] = _float("frame", "threshold_sigma")
+    seed: int = _static("frame", "seed")
+
+    def __check_init__(self):
+        _check(self, "frame")
+
+
+def frame_settings(values) -> FrameSettings:
+    """The :class:`FrameSettings` of a configuration's ``[frame]`` values (a mapping)."""
+    return FrameSettings(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in values.items()})
+
+
+def frame_shape(params: Params) -> tuple[int, int]:
+    """(rows, cols) of the pixel array (``camera.optical_area_m / camera.pixel_pitch_m``)."""
+    return resolution(params.camera)
+
+
+def frame_rays(params: Params, settings: FrameSettings, subpixel_samples: int | None = None,
+               shape: tuple[int, int] | None = None) -> Rays:
+    """The rays of every pixel of the camera (``subpixel_samples``: per axis, default the settings';
+    ``shape``: (rows, cols), default the camera's, which needs concrete camera values)."""
+    s = settings.subpixel_samples if subpixel_samples is None else subpixel_samples
+    return pixel_rays(params.camera, frame_shape(params) if shape is None else shape, s)
+
+
+@_jit.jit
+def _scene_returns(params, settings, geometry, sun_direction, bins, shape):
+    rays = frame_rays(params, settings, shape=shape)
+    surf = surface(geometry, rays, sun_direction)
+    out = direct_returns(params.illumination, settings.illumination_falloff_exponent, settings.baseline_m, surf, rays)
+    if geometry.patches is not None:
+        out = out + two_bounce_returns(params.illumination, settings.illumination_falloff_exponent,
+                                       settings.baseline_m, surf, rays, geometry.patches, bins)
+    return out
+
+
+def scene_returns(params: Params, settings: FrameSettings, geometry: SceneGeometry, *, sun_direction=None,
+                  bins: int = 32) -> Returns:
+    """Every pixel's returns from a scene: the direct return of each sub-pixel ray and, for a scene
+    with patches (:func:`tofjax.scenes.corner`), its two-bounce light in ``bins`` returns.
+    ``sun_direction``: the background light's direction (:func:`tofjax._scene.surface`)."""
+    sun = None if sun_direction is None else jnp.asarray(sun_direction, dtype=float)
+    return _scene_returns(params, settings, geometry, sun, bins, frame_shape(params))
+
+
+def depth_returns(params: Params, settings: FrameSettings, depth_m, reflectivity, *, radial: bool = False) -> Returns:
+    """Every pixel's direct return from a depth map ``(rows, cols)`` (Z depth, or the radial
+    distance with ``radial=True``) and a reflectivity map or number; one ray per pixel."""
+    shape = frame_shape(params)
+    depth = jnp.asarray(depth_m, dtype=float)
+    if depth.shape != shape:
+        raise ValueError(f"depth map has shape {depth.shape}, the camera {shape} (rows, cols; "
+                         "camera.optical_area_m / camera.pixel_pitch_m)")
+    return _depth_returns(params, settings, depth, jnp.asarray(reflectivity, dtype=float), radial, depth.shape)
+
+
+@_jit.jit
+def _depth_returns(params, settings, depth, reflectivity, radial, shape):
+    rays = frame_rays(params, settings, 1, shape)
+    surf = surface_from_depth(depth, reflectivity, rays, radial)
+    return direct_returns(params.illumination, settings.illumination_falloff_exponent, settings.baseline_m, surf, rays)
+
+
+def pixel_etendue_m2_sr(params: Params, settings: FrameSettings, rays: Rays | PixelField | None = None
+                        ) -> Float[Array, "rows cols"]:
+    """pi A_pixel FF k_lens cos^m(phi) (1 - v h^2) / (4 N^2): the flux on a pixel per unit radiance
+    of what it sees (module docstring), m^2 sr. ``rays``: the pixels' :class:`Rays` or
+    :class:`~tofjax._scene.PixelField` (default: the camera's, in closed form)."""
+    cam = params.camera
+    if rays is None:
+        rays = pixel_field(cam, frame_shape(params))
+    area = cam.pixel_pitch_m[0] * cam.pixel_pitch_m[1] * cam.fill_factor
+    relative = rays.cos_field_angle ** settings.relative_illumination_exponent
+    vignette = 1.0 - settings.vignetting * rays.image_height**2
+    return jnp.pi * area * cam.k_lens * relative * vignette / (4.0 * cam.f_number**2)
