@@ -166,7 +166,8 @@ def test_the_pixel_field_in_closed_form_is_the_rays(params):
     np.testing.assert_allclose(direction, np.asarray(rays.samples)[:, :, 0], rtol=1e-15, atol=1e-17)
     np.testing.assert_allclose(np.linalg.norm(direction, axis=-1), 1.0, rtol=1e-15)
     np.testing.assert_array_equal(direction[CENTRE], [0.0, 0.0, 1.0])
-    # The corner pixel's field angle from the geometry alone: tan = (half diagonal - half a pitch) / f.
+    # The corner pixel's field angle from the geometry alone: its centre lies (cols - 1) / 2 and (rows - 1) / 2
+    # pitches off the axis, at the focal length f behind the lens centre.
     f = float(tj.lens(params.camera).focal_length_m)
     x, y = (COLS - 1) / 2 * PITCH, (ROWS - 1) / 2 * PITCH
     assert float(field.cos_field_angle[0, 0]) == pytest.approx(f / np.sqrt(x * x + y * y + f * f), rel=1e-15)
