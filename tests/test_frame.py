@@ -453,6 +453,20 @@ def test_render_refuses_bad_input_in_one_line(tmp_path, capsys, monkeypatch, arg
     assert len(errors) == 1 and message in errors[0] and "Traceback" not in stderr
 
 
+def test_sharded_map_compiles_once_per_function():
+    """A second call of sharded_map with the same function and shapes runs the program it built
+    (fn traced once; it was traced and compiled again on every call, 1.3 s for 16 frames)."""
+    traced = []
+
+    def fn(x):
+        traced.append(1)
+        return 2.0 * x
+
+    for _ in range(2):
+        np.testing.assert_array_equal(tj.sharded_map(fn, jnp.arange(3.0)), [0.0, 2.0, 4.0])
+    assert len(traced) == 1
+
+
 def test_sharded_over_two_cpu_devices_equals_unsharded(tmp_path):
     """Scenes sharded over 2 host devices (XLA_FLAGS=--xla_force_host_platform_device_count=2): the
     same noise images as one device."""
