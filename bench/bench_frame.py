@@ -13,6 +13,8 @@ on both sides, as NumPy's ``NumpyFrame`` always did: a camera streaming a changi
   validity; NumPy: the same, one frame);
 - ``sample_frame``: the same through ``tj.sample_frame(params, settings, returns, key, 1)``, which
   prepares the camera in every call too (no NumPy counterpart);
+- ``moving_scene``: the scene ray-cast in every call too (``tj.scene_returns`` of the plane, then the
+  camera's ``sample``): a built-in scene that moves (no NumPy counterpart);
 - ``render_one``: one frame through ``render_frame(frames=1, keep_frames=1)``, which also computes the
   per-pixel statistics of its frames (no NumPy counterpart);
 - ``prepared``: one noisy frame per call of a scene exposed once (``prepare_frame`` once, then
@@ -113,7 +115,8 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
     rows, cols = size
     p = eqx.tree_at(lambda q: q.camera.optical_area_m, tj.Params(), jnp.array([cols * PITCH, rows * PITCH]))
     s = tj.FrameSettings()
-    returns = ready(tj.scene_returns(p, s, scenes.tilted_plane(1.2, 30.0)))
+    plane = scenes.tilted_plane(1.2, 30.0)
+    returns = ready(tj.scene_returns(p, s, plane))
     depth_map = ready(tj.depth_returns(p, s, returns.radial_m, 0.5, radial=True))
     n_px = rows * cols
     camera = ready(tj.prepare_camera(p, s))
@@ -124,6 +127,7 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
     cases = {
         "tofjax_one": lambda i: ready(camera.sample(returns, jax.random.key(i + 3), 1).radial_m),
         "tofjax_sample_frame": lambda i: ready(tj.sample_frame(p, s, returns, jax.random.key(i + 3), 1).radial_m),
+        "tofjax_moving_scene": lambda i: ready(camera.sample(tj.scene_returns(p, s, plane), jax.random.key(i + 3), 1).radial_m),
         "tofjax_render_one": lambda i: ready(tj.render_frame(p, s, returns, jax.random.key(i + 3), 1, keep_frames=1)
                                              .result.depth_m),
         "tofjax_batch": lambda i: ready(tj.render_frame(p, s, returns, jax.random.key(i + 3), BATCH,
@@ -147,6 +151,7 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
         cases["floor_numpy_normals"] = lambda i: rng.standard_normal((4, n_px, BATCH, 4))
     t = interleaved(cases, repeats)
     out = {"seconds": t, "frames_per_s": {"tofjax_one": 1 / t["tofjax_one"], "tofjax_sample_frame": 1 / t["tofjax_sample_frame"],
+                                          "tofjax_moving_scene": 1 / t["tofjax_moving_scene"],
                                           "tofjax_render_one": 1 / t["tofjax_render_one"],
                                           "tofjax_prepared": 1 / t["tofjax_prepared"],
                                           "tofjax_batch": BATCH / t["tofjax_batch"]},
@@ -178,9 +183,10 @@ def table(r: dict) -> str:
             continue
         c, size = r[name], name[6:]
         fps = c["frames_per_s"]
-        labels = {"one": "1 per call", "sample_frame": "1 per call, camera too", "render_one": "1 per call, with statistics",
-                  "prepared": "1 per call, scene prepared", "batch": f"{BATCH} per call"}
-        for kind in ("one", "sample_frame", "render_one", "prepared", "batch"):
+        labels = {"one": "1 per call", "sample_frame": "1 per call, camera too", "moving_scene": "1 per call, ray-cast too",
+                  "render_one": "1 per call, with statistics", "prepared": "1 per call, scene prepared",
+                  "batch": f"{BATCH} per call"}
+        for kind in ("one", "sample_frame", "moving_scene", "render_one", "prepared", "batch"):
             ratio = c["ratios"].get(f"numpy_{kind}/tofjax_{kind}")
             lines.append(f"{size + ' noisy frames, ' + labels[kind]:<50}"
                          f"{fps[f'tofjax_{kind}']:>12.0f} fps{fps.get(f'numpy_{kind}', float('nan')):>10.0f} fps"

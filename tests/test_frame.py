@@ -24,6 +24,7 @@ from tofjax._frame import frame_charges, _frame_chain
 from tofjax._pattern import mean_pattern
 
 PITCH = 17.5e-6
+_INF = float("inf")
 COLS, ROWS = 31, 21
 CENTRE = (ROWS // 2, COLS // 2)
 
@@ -150,6 +151,58 @@ def test_a_prepared_camera_is_the_frame_functions_on_every_scene(params, one_ray
         camera.sample(other, jax.random.key(0))
     with pytest.raises(TypeError, match=r"^pattern must be a tofjax.PixelPattern or None, got float$"):
         tj.prepare_camera(params, one_ray, 0.5)
+
+
+def test_rays_meet_the_nearest_surface_of_a_numpy_ray_caster():
+    """2000 random rays from the lens centre into a box, a clipped plane and a sphere: the nearest
+    hit's distance and its normal (facing the ray) as a ray caster written out per primitive in NumPy
+    (slabs for the box, the quadratic for the sphere); of two equally near surfaces, the first. The
+    front and top faces of the box on their own: the closed-form distances and normals."""
+    from tofjax._scene import Box, Plane, SceneGeometry, Sphere
+
+    box = Box((-0.25, -1.0, 1.8), (0.25, -0.5, 2.3), 0.5)
+    plane = Plane((0.0, 0.0, 2.0), (0.2, 0.1, 1.0), 0.9, lo=(-0.6, -_INF, -_INF), hi=(_INF, 0.4, _INF))
+    ball = Sphere((0.3, 0.2, 1.6), 0.35, 0.7)
+    geometry = SceneGeometry((box, plane, ball))
+    d = np.random.default_rng(7).normal([0.0, -0.2, 1.0], [0.35, 0.35, 0.05], (2000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    hit = geometry.cast(jnp.asarray(d))
+
+    t_box, n_box = np.full(len(d), np.inf), np.zeros_like(d)
+    with np.errstate(divide="ignore"):
+        t_lo, t_hi = np.array(box.lo) / d, np.array(box.hi) / d
+    near, far = np.minimum(t_lo, t_hi), np.maximum(t_lo, t_hi)
+    t_in, t_out = near.max(axis=1), far.min(axis=1)
+    ok = (t_in <= t_out) & (t_in > 0)
+    t_box[ok] = t_in[ok]
+    n_box[np.arange(len(d)), near.argmax(axis=1)] = 1.0
+    n = np.array([0.2, 0.1, 1.0]) / np.linalg.norm([0.2, 0.1, 1.0])
+    t_plane = (np.array([0.0, 0.0, 2.0]) @ n) / (d @ n)
+    p = t_plane[:, None] * d
+    t_plane = np.where((t_plane > 0) & (p[:, 0] >= -0.6) & (p[:, 1] <= 0.4), t_plane, np.inf)
+    c, r = np.array([0.3, 0.2, 1.6]), 0.35
+    b = d @ c
+    disc = b * b - (c @ c - r * r)
+    t_ball = np.where(disc > 0, b - np.sqrt(np.maximum(disc, 0)), np.inf)
+    n_ball = (t_ball[:, None] * d - c) / r
+    ts = np.stack([t_box, t_plane, t_ball])
+    best = ts.argmin(axis=0)
+    normals = np.stack([n_box, np.broadcast_to(n, d.shape), n_ball])[best, np.arange(len(d))]
+    normals *= np.where(np.sum(normals * d, axis=1, keepdims=True) > 0, -1.0, 1.0)
+    t = ts.min(axis=0)
+    found = np.isfinite(t)
+    assert all(np.sum(found & (best == k)) > 100 for k in range(3)) and not np.all(found)  # every primitive, and misses
+    np.testing.assert_allclose(hit.t, t, rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(hit.normal)[found], normals[found], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(hit.reflectivity, np.array([0.5, 0.9, 0.7])[best])
+
+    front, top = np.array([0.0, -0.75, 1.8]), np.array([0.0, -0.5, 2.05])  # face centres of the box
+    faces = SceneGeometry((box,)).cast(jnp.asarray(np.stack([front, top]) / np.linalg.norm([front, top], axis=1)[:, None]))
+    np.testing.assert_allclose(faces.t, np.linalg.norm([front, top], axis=1), rtol=1e-14)
+    np.testing.assert_allclose(faces.normal, [[0.0, 0.0, -1.0], [0.0, 1.0, 0.0]], atol=1e-15)
+    # Two surfaces at the same distance: the first primitive's.
+    twins = SceneGeometry((Plane((0.0, 0.0, 1.0), (0.0, 0.0, 1.0), 0.3), Plane((0.0, 0.0, 1.0), (0.0, 0.0, 1.0), 0.8)))
+    assert float(twins.cast(jnp.array([[0.0, 0.0, 1.0]])).reflectivity[0]) == 0.3
 
 
 def test_the_pixel_field_in_closed_form_is_the_rays(params):
