@@ -518,6 +518,13 @@ def test_sharded_map_compiles_once_per_function():
     for _ in range(2):
         np.testing.assert_array_equal(tj.sharded_map(fn, jnp.arange(3.0)), [0.0, 2.0, 4.0])
     assert len(traced) == 1
+    # A function that cannot be a cache key (a prepared camera's bound method: an equinox Module,
+    # unhashable) still runs, built per call.
+    params, settings = small(), tj.FrameSettings(subpixel_samples=1)
+    camera = tj.prepare_camera(params, settings)
+    walls = jax.vmap(lambda d: tj.scene_returns(params, settings, scenes.wall(d)))(jnp.array([1.0, 1.5]))
+    np.testing.assert_allclose(tj.sharded_map(camera.noise_image, walls)[1],
+                               camera.noise_image(tj.scene_returns(params, settings, scenes.wall(1.5))), rtol=1e-12)
 
 
 def test_sharded_over_two_cpu_devices_equals_unsharded(tmp_path):

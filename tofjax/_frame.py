@@ -590,7 +590,10 @@ _SHARDED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 def _sharded(fn, devices: tuple):
     from jax.sharding import Mesh, PartitionSpec
 
-    per_fn = _SHARDED.setdefault(fn, {})
+    try:
+        per_fn = _SHARDED.setdefault(fn, {})
+    except TypeError:  # no weak reference or no hash (an equinox Module's bound method): built per call
+        per_fn = {}
     if devices not in per_fn:
         spec = PartitionSpec("batch")
         mesh = Mesh(np.array(devices), ("batch",))
