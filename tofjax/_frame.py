@@ -134,8 +134,16 @@ class PreparedCamera(eqx.Module):
     def expose(self, returns: Returns) -> FrameExposure:
         """Every pixel's :class:`FrameExposure` of a scene, at the camera's illuminance and
         integration time: each return sorted by the mixer with its own delay f path / c (Eq 3.22)
-        plus the pixel's phase offset, the returns' phasors added (Eqs 3.19-3.21)."""
-        return self._exposed(returns)
+        plus the pixel's phase offset, the returns' phasors added (Eqs 3.19-3.21).
+
+        A program of its own, which returns only what depends on the scene (a program's output that
+        is one of its inputs is a copy). Inside a transformation of the caller's (``jit``, ``vmap``,
+        ``grad``: one program with what reads it), the modulated sum is written out by
+        :func:`_materialised` instead."""
+        if _jit.traced((self, returns)):
+            modulated, signal, background = self._scene_light(returns)
+            return self._with_camera(_materialised(modulated), signal, background)
+        return self._with_camera(*_scene_light(self, returns))
 
     def _scene_light(self, returns: Returns) -> tuple[Array, Array, Array]:
         """What of the exposure depends on the scene: (modulated, signal, background) electrons."""
@@ -151,39 +159,29 @@ class PreparedCamera(eqx.Module):
         return FrameExposure(modulated, signal, background, self.chain.params.pixel.demodulation_contrast,
                              self.pattern.tap_asymmetry, self.dark_a_e, self.dark_b_e)
 
-    def _exposed(self, returns: Returns) -> FrameExposure:
-        """:meth:`expose` as a program of its own, which returns only what depends on the scene (a
-        program's output that is one of its inputs is a copy). Inside a transformation of the
-        caller's (``jit``, ``vmap``, ``grad``: one program with what reads it), the modulated sum is
-        written out by :func:`_materialised` instead."""
-        if _jit.traced((self, returns)):
-            modulated, signal, background = self._scene_light(returns)
-            return self._with_camera(_materialised(modulated), signal, background)
-        return self._with_camera(*_scene_light(self, returns))
-
     def sample(self, returns: Returns, key: PRNGKeyArray, frames: int = 1) -> NoisyFrames:
         """``frames`` noisy frames of a scene (:func:`sample_frame`): radial distance, amplitude and
         validity, ``(frames, rows, cols)``."""
         self._check(returns)
         check_counts(frames, frames, math.prod(self.shape), self.chain.n_phases)
-        return _sample_charges(self.chain, self._exposed(returns), key, frames, self.shape)
+        return _sample_charges(self.chain, self.expose(returns), key, frames, self.shape)
 
     def noise_image(self, returns: Returns) -> Float[Array, "rows cols"]:
         """A scene's noise image (:func:`noise_image`): each pixel's analytic standard deviation of
         its radial distance, m."""
         self._check(returns)
-        return _noise_image_prepared(self.chain, returns.radial_m, self._exposed(returns))
+        return _noise_image_prepared(self.chain, returns.radial_m, self.expose(returns))
 
     def predict(self, returns: Returns) -> FrameResult:
         """A scene's analytic frame (:func:`predict_frame`)."""
         self._check(returns)
-        result = _predict_prepared(self.chain, returns.radial_m, self._exposed(returns))
+        result = _predict_prepared(self.chain, returns.radial_m, self.expose(returns))
         return FrameResult(result, returns.radial_m, self.direction, self.pattern)
 
     def prepare(self, returns: Returns) -> PreparedFrame:
         """A scene exposed once (:func:`prepare_frame`)."""
         self._check(returns)
-        sweep, charges, consts = _charges_and_constants(self.chain, returns.radial_m, self._exposed(returns))
+        sweep, charges, consts = _charges_and_constants(self.chain, returns.radial_m, self.expose(returns))
         return PreparedFrame(self.chain, sweep, Prepared(charges, consts), returns.radial_m, self.direction, self.pattern)
 
     def render(self, returns: Returns, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0,
@@ -353,12 +351,6 @@ def _check_camera(params, settings, pattern) -> None:
         raise TypeError(f"pattern must be a tofjax.PixelPattern or None, got {type(pattern).__name__}")
 
 
-def _tap_charges(exposed: FrameExposure | TapCharges) -> TapCharges:
-    """The tap charges of a :class:`FrameExposure` (made inside the program that reads them), or
-    the charges themselves."""
-    return exposed.charges() if isinstance(exposed, FrameExposure) else exposed
-
-
 def noise_image(params: Params, settings: FrameSettings, returns: Returns, pattern: PixelPattern | None = None, *,
                 smooth: Smooth | None = None) -> Float[Array, "rows cols"]:
     """The per-pixel noise image of a scene: the analytic standard deviation of each pixel's radial
@@ -495,10 +487,10 @@ def _scene_light(camera: PreparedCamera, returns: Returns) -> tuple[Array, Array
 FRAME_CHUNK_ELEMENTS = 1 << 21
 
 
-def _point_charges(chain, exposed: FrameExposure | TapCharges) -> PointCharges:
+def _point_charges(chain, exposed: FrameExposure) -> PointCharges:
     """The pixels as the frames' points (flattened), each with its own full well; their charges are
     made where the frames are drawn."""
-    n = math.prod(exposed.dark_a_e.shape if isinstance(exposed, FrameExposure) else exposed.dark_a.shape)
+    n = math.prod(exposed.dark_a_e.shape)
     flat = jax.tree_util.tree_map(lambda x: x.reshape((n,) + x.shape[2:]) if x.ndim >= 2 else x, exposed)
     return PointCharges(flat, jnp.arange(n, dtype=jnp.uint32), chain.limit.full_well_e.reshape(n))
 
@@ -520,13 +512,13 @@ def _render_prepared(frame: PreparedFrame, key, frames, keep_frames, progress) -
 def _predict_prepared(chain, sweep, exposed) -> Result:
     """The analytic frame (``sweep``: the pixels' :class:`Sweep`, or their true distances)."""
     sweep = _sweep(chain.params, sweep)
-    return analytic(chain, sweep, moments(chain, sweep, _tap_charges(exposed)))
+    return analytic(chain, sweep, moments(chain, sweep, exposed.charges()))
 
 
 @_jit.jit
 def _noise_image_prepared(chain, sweep, exposed) -> Array:
     sweep = _sweep(chain.params, sweep)
-    return analytic(chain, sweep, moments(chain, sweep, _tap_charges(exposed))).depth_std_m
+    return analytic(chain, sweep, moments(chain, sweep, exposed.charges())).depth_std_m
 
 
 @_jit.jit

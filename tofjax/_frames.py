@@ -75,9 +75,9 @@ class PointCharges(eqx.Module):
     the frame's own loop instead of writing eight ``(phases, points)`` arrays first and reading them
     back (one frame of 640 x 480: 31 ms as constants then frames, 14 ms so; 224 x 172: 3.2 and 2.2 ms).
 
-    **Fields:** ``exposed``: the points' :class:`~tofjax._mixer.TapCharges`, flattened ``(points,
-    phases)``, or what makes them with its ``charges()`` (a frame's
-    :class:`~tofjax._frame.FrameExposure`: then the taps' charges, too, are made inside the branch,
+    **Fields:** ``exposed``: what makes the points' :class:`~tofjax._mixer.TapCharges` with its
+    ``charges()``, flattened ``(points, ...)``: the charges themselves, or a frame's
+    :class:`~tofjax._frame.FrameExposure` (then the taps' charges, too, are made inside the branch,
     from the program's input, and nothing of them is written out); ``index``, ``full_well_e``: as
     :func:`point_constants`."""
 
@@ -86,8 +86,7 @@ class PointCharges(eqx.Module):
     full_well_e: Array | None = None
 
     def constants(self, chain: Chain) -> PointConstants:
-        charges = self.exposed if isinstance(self.exposed, TapCharges) else self.exposed.charges()
-        return point_constants(chain, charges, self.index, self.full_well_e)
+        return point_constants(chain, self.exposed.charges(), self.index, self.full_well_e)
 
 
 def _limit(chain: Chain, full_well_e: Array | None, frames: bool, frames_first: bool = False):

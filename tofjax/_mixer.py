@@ -53,6 +53,11 @@ class TapCharges(eqx.Module):
         """Dark electrons of both taps."""
         return self.dark_a + self.dark_b
 
+    def charges(self) -> TapCharges:
+        """Themselves: what reads tap charges takes these or a frame's exposure
+        (:meth:`tofjax._frame.FrameExposure.charges`, which makes them)."""
+        return self
+
 
 @eqx.filter_jit
 def split_between_taps(fraction_a: Float[Array, "*b phases"], contrast: Float[Array, ""],

@@ -131,7 +131,8 @@ def pixel_rays(camera: Camera, shape: tuple[int, int], subpixel_samples: int = 1
     xs = (col[None, :, None, None] + sub[None, None, None, :]) * px  # (1, cols, 1, s)
     ys = (row[:, None, None, None] - sub[None, None, :, None]) * py  # (rows, 1, s, 1)
     samples = _unit_rays(xs, ys, f).reshape(rows, cols, s * s, 3)
-    return Rays(pixel_directions(camera, shape), samples, _image_height(camera, shape, *_centres_m(camera, shape)))
+    x, y = _centres_m(camera, shape)
+    return Rays(_unit_rays(x, y, f), samples, _image_height(camera, shape, x, y))
 
 
 class Hit(eqx.Module):
