@@ -16,6 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import tofjax as tj
+from tofjax.outputs import save_figure, write_text
 from tofjax.schema import get_leaf, render_toml
 from tofjax.sweepfile import utc_now
 
@@ -98,9 +99,9 @@ class Calibration:
         written = []
         header = "".join(f"# calibrated by tofjax calibrate from {r.path}\n" for r in self.rows)
         toml_path = out / "calibrated.toml"
-        toml_path.write_text(header + render_toml(self.calibrated_config().values), encoding="utf-8")
+        write_text(toml_path, header + render_toml(self.calibrated_config().values))
         json_path = out / "calibration.json"
-        json_path.write_text(json.dumps(self.as_dict(), indent=2), encoding="utf-8")
+        write_text(json_path, json.dumps(self.as_dict(), indent=2))
         written += [toml_path, json_path]
         written += _figures(self, out)
         comparisons = self.comparisons()
@@ -108,8 +109,8 @@ class Calibration:
             written += write_comparison([c[which] for c in comparisons], out, stem=stem,
                                         title=f"Measured vs model, {stem.split('_')[1]} parameters")
         report = out / "report.md"
-        report.write_text(_report(self, [p.name for p in written if p.suffix == ".png" and p.name.startswith(("fit_", "residuals", "corner"))],
-                                  comparisons), encoding="utf-8")
+        write_text(report, _report(self, [p.name for p in written if p.suffix == ".png"
+                                          and p.name.startswith(("fit_", "residuals", "corner"))], comparisons))
         written.append(report)
         return written
 
@@ -340,7 +341,7 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
             ax.legend(fontsize=7)
         fig.suptitle(Path(rows.path).name)
         path = out / f"fit_{i}_{Path(rows.path).stem}.png"
-        fig.savefig(path, dpi=110)
+        save_figure(fig, path, dpi=110)
         written.append(path)
 
     evaluated = cal.least_squares.evaluated
@@ -362,7 +363,7 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
         ax.set_title(Path(rows.path).name, fontsize=9)
         ax.legend(fontsize=8)
     path = out / "residuals.png"
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     written.append(path)
 
     if cal.posterior is not None and len(cal.posterior.names) == 1:  # corner needs two or more
@@ -377,7 +378,7 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
         ax.set_ylabel("samples")
         ax.legend(fontsize=8)
         path = out / "corner.png"
-        fig.savefig(path, dpi=100)
+        save_figure(fig, path, dpi=100)
         written.append(path)
     elif cal.posterior is not None and len(cal.posterior.samples) > len(cal.posterior.names):
         import corner
@@ -388,7 +389,7 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
                             title_fmt=".4g", title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 8},
                             fig=Figure(figsize=(size, size)))
         path = out / "corner.png"
-        fig.savefig(path, dpi=100)
+        save_figure(fig, path, dpi=100)
         written.append(path)
     return written
 

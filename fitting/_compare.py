@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 import tofjax as tj
+from tofjax.outputs import atomic_path, write_bytes, write_text
 
 from ._data import Measurement, read_measurement
 from ._problem import DENSE_POINTS, dense_sweep, hard_observables
@@ -327,7 +328,7 @@ def write_comparison(comparisons: list[FileComparison], out: str | Path, *, titl
     written: list[Path] = []
     records = table_rows(comparisons)
     csv_path = out / f"{stem}.csv"
-    with open(csv_path, "w", newline="", encoding="utf-8") as f:
+    with atomic_path(csv_path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=list(_CSV_COLUMNS))
         writer.writeheader()
         writer.writerows(records)
@@ -338,7 +339,7 @@ def write_comparison(comparisons: list[FileComparison], out: str | Path, *, titl
         buffer = io.BytesIO()
         fig.savefig(buffer, format="png", dpi=90)
         path = out / f"{stem}_{i}_{Path(c.path).stem}.png"
-        path.write_bytes(buffer.getvalue())
+        write_bytes(path, buffer.getvalue())
         pngs.append((path, buffer.getvalue()))
         written.append(path)
     summary = _summary_lines(comparisons)
@@ -353,10 +354,10 @@ def write_comparison(comparisons: list[FileComparison], out: str | Path, *, titl
             md.append("| " + " | ".join(r[k] for k, _ in _MD_COLUMNS) + " |")
         md.append("")
     md_path = out / f"{stem}.md"
-    md_path.write_text("\n".join(md), encoding="utf-8")
+    write_text(md_path, "\n".join(md))
     written.append(md_path)
     html_path = out / f"{stem}.html"
-    html_path.write_text(_html(title, preamble or [], notes, summary, comparisons, records, pngs), encoding="utf-8")
+    write_text(html_path, _html(title, preamble or [], notes, summary, comparisons, records, pngs))
     written.append(html_path)
     return written
 

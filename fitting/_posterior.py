@@ -84,7 +84,8 @@ def sample_posterior(problem: Problem, least_squares: LeastSquaresResult, *, wal
     - ``seed``: seeds the walkers' start and the sampler.
     - ``backend_path``: an HDF5 file to store the chain; with ``resume`` an existing chain is
       continued for ``steps`` more steps.
-    - ``progress``: show emcee's progress bar.
+    - ``progress``: report the steps (:class:`tofjax.progress.Progress`: a bar on a terminal, a line
+      every 10 s otherwise).
     """
     ndim = problem.n_params
     if walkers < 2 * ndim or walkers % 2:
@@ -117,7 +118,14 @@ def sample_posterior(problem: Problem, least_squares: LeastSquaresResult, *, wal
         else:
             ball = 1e-3 * rng.standard_normal((walkers, ndim))
         start = u0 + ball
-    sampler.run_mcmc(start, steps, progress=progress)
+    # tofjax's own reporter, not emcee's bar: a bar on a terminal, a line every 10 s in a log (emcee
+    # writes its bar's carriage-return updates into logs).
+    from tofjax.progress import Progress
+
+    with Progress(steps, "posterior", unit="step", enabled=progress) as bar:
+        for _ in sampler.sample(sampler.get_last_sample() if start is None else start, iterations=steps,
+                                progress=False):
+            bar.update(1)
     total = sampler.iteration
     tau = np.asarray(sampler.get_autocorr_time(quiet=True, tol=0), dtype=float)
     notes = []

@@ -10,7 +10,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from tofjax.cli import positive_float, positive_int
+from tofjax.cli import add_output_options, positive_float, positive_int
 
 
 def _pair(text: str) -> tuple[str, tuple[float, float]]:
@@ -67,12 +67,14 @@ def register(subparsers) -> None:
     p.add_argument("--check", action="store_true", help="validate the files, names, bounds and outputs, print what "
                                                         "would be fitted, fit nothing")
     p.add_argument("--quiet", action="store_true", help="no progress report")
+    add_output_options(p, resume="--resume (the --backend chain)")
     p.set_defaults(run=run)
 
 
 def _check_outputs(args) -> None:
     """Every output before any work (a fit must not end in "cannot write" after a minute)."""
     from tofjax.cli import CommandError, check_output_dir, check_output_file
+    from tofjax.outputs import relative_inside
 
     if args.resume and args.backend is None:
         raise CommandError("--resume continues the chain stored in --backend FILE.h5: give --backend", 2)
@@ -83,14 +85,28 @@ def _check_outputs(args) -> None:
             import h5py  # noqa: F401
         except ImportError:
             raise CommandError("--backend needs h5py: pip install h5py (or \"tofjax[hdf5]\")", 2) from None
-        check_output_file(args.backend, "--backend")
-    check_output_dir(args.out, "--out")
+        if relative_inside(args.backend, args.out) is not None:
+            raise CommandError(f"--backend {args.backend} lies inside --out {args.out}, which is replaced as a whole "
+                               "when the run ends: keep the chain outside it", 2)
+        if not (args.resume and args.backend.exists()):
+            check_output_file(args.backend, "--backend", args, resume_option="--resume")
+    check_output_dir(args.out, "--out", args)
+
+
+def _print_estimates(ls, posterior=None) -> None:
+    width = max(len(n) for n in ls.names)
+    for n, u, e, s in zip(ls.names, ls.units, ls.estimate, ls.sigma, strict=True):
+        line = f"  {n:<{width}} = {e:.6g} +- {s:.3g} {u}"
+        if posterior is not None:
+            k = posterior.names.index(n)
+            line += f"   posterior {posterior.median[k]:.6g} [{posterior.p16[k]:.6g}, {posterior.p84[k]:.6g}]"
+        print(line, flush=True)
 
 
 def run(args) -> int:
     import tofjax as tj
-    from tofjax.cli import CommandError
-    from tofjax.progress import Progress, reporting
+    from tofjax.cli import CommandError, on_interrupt, output_dir, untouched_note
+    from tofjax.progress import Progress, compiling, reporting
 
     from ._calibrate import calibrate, check_inputs
     from ._least_squares import ConvergenceError
@@ -106,42 +122,47 @@ def run(args) -> int:
         print(f"plan: fit {', '.join(p.name for p in parameters)} to {used} measured values in {len(rows)} file(s); "
               f"into {args.out}")
         return 0
+    on_interrupt(untouched_note(args.out))
     try:
-        with warnings.catch_warnings():  # a short chain is reported below as a "warning:" line
-            if args.mcmc:  # emcee is imported only for a posterior
-                from ._posterior import ShortChainWarning
-
-                warnings.simplefilter("ignore", ShortChainWarning)
-            with reporting(Progress(args.max_steps, "least squares", unit="step", enabled=not args.quiet,
-                                    upper_bound=True)):
-                cal = calibrate(args.sweeps, config, fit=names, bounds=dict(args.bounds), priors=dict(args.prior),
-                                relative_error=args.relative_error, min_snr=args.min_snr, mcmc=args.mcmc,
-                                walkers=args.walkers, steps=args.steps, seed=args.seed, backend=args.backend,
-                                resume=args.resume, progress=args.mcmc and not args.quiet, max_steps=args.max_steps,
-                                initial=dict(args.initial))
+        with reporting(Progress(args.max_steps, "least squares", unit="step", enabled=not args.quiet,
+                                upper_bound=True)), compiling(enabled=not args.quiet):
+            cal = calibrate(args.sweeps, config, fit=names, bounds=dict(args.bounds), priors=dict(args.prior),
+                            relative_error=args.relative_error, min_snr=args.min_snr, max_steps=args.max_steps,
+                            initial=dict(args.initial))
     except ConvergenceError as err:  # name the option, not the API argument
         raise CommandError(str(err).replace("`max_steps`", f"--max-steps (now {args.max_steps})"), 1) from None
     cal.command = " ".join(["tofjax", *map(shlex.quote, sys.argv[1:])]) if sys.argv[1:2] == ["calibrate"] else ""
-    try:
-        written = cal.write(args.out)
-    except OSError as err:
-        raise CommandError(f"cannot write {args.out}: {err.strerror or err}", 2) from None
     ls = cal.least_squares
-    width = max(len(n) for n in ls.names)
     for e in cal.excluded_at_solution:
         print(f"left out {e['file']}:{e['line']}: {e['reason']} (refitted without it)")
+    if ls.converged:  # the estimates as soon as the fit ends (a posterior may take minutes more)
+        print(f"least squares: converged in {ls.steps} steps, chi^2/dof = {ls.chi2_per_dof:.3f} ({ls.dof} dof)")
+        _print_estimates(ls)
+        if args.mcmc:
+            from ._posterior import ShortChainWarning
+
+            if args.backend is not None:
+                on_interrupt(f"during the posterior: the chain so far is in {args.backend} (continue with --resume); "
+                             f"nothing was written to {args.out}")
+            with warnings.catch_warnings():  # a short chain is reported below as a "warning:" line
+                warnings.simplefilter("ignore", ShortChainWarning)
+                cal = cal.with_posterior(walkers=args.walkers, steps=args.steps, seed=args.seed, backend=args.backend,
+                                         resume=args.resume, progress=not args.quiet)
+            post = cal.posterior
+            print(f"posterior: {post.walkers} walkers x {post.steps} steps (burn-in {post.burn_in}, thin {post.thin}), "
+                  "median [16 %, 84 %]:")
+            _print_estimates(ls, post)
+    if not args.quiet:
+        print(f"writing the results, figures and report into {args.out} ...", file=sys.stderr, flush=True)
+    try:
+        with output_dir(args.out, "tofjax calibrate", args) as folder:
+            written = cal.write(folder.staging)
+    except OSError as err:
+        raise CommandError(f"cannot write {args.out}: {err.strerror or err}", 2) from None
     if not ls.converged:
         raise CommandError(f"least squares did not converge after {ls.steps} steps (--max-steps {args.max_steps}): "
                            f"{ls.solver_message}; the last iterate, residuals and figures are in {args.out} "
                            f"(report.md); raise --max-steps, start closer (--initial) or fit fewer parameters", 1)
-    print(f"least squares: converged in {ls.steps} steps, chi^2/dof = {ls.chi2_per_dof:.3f} ({ls.dof} dof)")
-    for n, u, e, s in zip(ls.names, ls.units, ls.estimate, ls.sigma, strict=True):
-        line = f"  {n:<{width}} = {e:.6g} +- {s:.3g} {u}"
-        if cal.posterior is not None:
-            k = cal.posterior.names.index(n)
-            post = cal.posterior
-            line += f"   posterior {post.median[k]:.6g} [{post.p16[k]:.6g}, {post.p84[k]:.6g}]"
-        print(line)
     for flag in ls.bound_flags:
         print(f"warning: {flag['message']}")
     for message in ls.degeneracies:

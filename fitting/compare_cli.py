@@ -8,6 +8,8 @@ from pathlib import Path
 
 
 def register(subparsers) -> None:
+    from tofjax.cli import add_output_options
+
     p = subparsers.add_parser(
         "compare", help="put measured sweeps beside the model, without fitting (thesis Table 4.27)",
         description="The thesis' analyze-LTS-data function (§4.4.2, Table 4.27): per file the measured depth against "
@@ -19,13 +21,14 @@ def register(subparsers) -> None:
     p.add_argument("--config", type=Path, help="camera configuration TOML (default: built-in defaults)")
     p.add_argument("--out", type=Path, required=True, help="output directory")
     p.add_argument("--check", action="store_true", help="validate the files and the output, compare nothing")
+    add_output_options(p)
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
-    from tofjax.cli import check_output_dir, enable_compilation_cache
+    from tofjax.cli import check_output_dir, enable_compilation_cache, on_interrupt, output_dir, untouched_note
 
-    check_output_dir(args.out, "--out")
+    check_output_dir(args.out, "--out", args)
     # Before JAX starts: a comparison is one short analytic program per camera, where compilation is
     # most of the time (the faster-compiling CPU emitters: 10.1 -> see docs/fitting.md).
     enable_compilation_cache(fast_compile=True)
@@ -40,11 +43,13 @@ def run(args) -> int:
         print(f"plan: compare {sum(m.data.n_rows for m in measurements)} rows of {len(measurements)} file(s) with the "
               f"model; into {args.out}")
         return 0
+    on_interrupt(untouched_note(args.out))
     t0 = time.perf_counter()
     comparisons = compare_measurements(measurements)
     source = str(args.config) if args.config else "built-in defaults"
-    written = write_comparison(comparisons, args.out, title="Measured vs model (tofjax compare)",
-                               preamble=[f"tofjax {tj.__version__}; configuration: {source}."])
+    with output_dir(args.out, "tofjax compare", args) as folder:
+        written = write_comparison(comparisons, folder.staging, title="Measured vs model (tofjax compare)",
+                                   preamble=[f"tofjax {tj.__version__}; configuration: {source}."])
     for c in comparisons:
         parts = []
         for name, text in (("depth_std_m", "depth noise"), ("amplitude_mean_lsb", "amplitude")):

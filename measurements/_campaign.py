@@ -25,6 +25,7 @@ import numpy as np
 import tofjax as tj
 from tofjax import stats
 from tofjax import sweepfile as sf
+from tofjax.outputs import atomic_path
 
 from ._interfaces import Frames
 
@@ -124,11 +125,16 @@ def check_resume(path: Path, settings: CampaignSettings, grid: dict[str, str]) -
 
 
 def run_campaign(settings: CampaignSettings, *, stage, camera, lux, out: str | Path, metadata: dict,
-                 resume: bool = False, progress: bool = True, distance_offset_m: float = 0.0) -> int:
+                 resume: bool = False, progress: bool = True, distance_offset_m: float = 0.0, replace: bool = False,
+                 replace_measurement: bool = False, on_point=None) -> int:
     """Record the sweep into ``out``; returns the number of rows written now.
 
     Every row is appended and fsynced as soon as its point is measured, so an interrupted campaign
-    leaves a valid file with every completed row; ``resume`` skips the points already in it.
+    leaves a valid file with every completed row; ``resume`` skips the points already in it. A new
+    file is created whole (its header) under a temporary name and renamed into place: an existing
+    ``out`` is refused unless ``replace``, a measurement unless ``replace_measurement`` too
+    (:mod:`tofjax.outputs`). ``on_point(done, total)``: called before the first point and after
+    each (the points in the file, of the sweep's).
     """
     from tofjax.progress import Progress
 
@@ -158,7 +164,11 @@ def run_campaign(settings: CampaignSettings, *, stage, camera, lux, out: str | P
     bar = Progress(settings.samples, "recording", unit="point", initial=settings.samples - len(todo),
                    enabled=progress)
     written, t0 = 0, time.monotonic()
-    with bar, sf.SweepWriter(out, metadata, columns, append=resume and out.exists()) as writer:
+    report = on_point if on_point is not None else (lambda done, total: None)
+    before = settings.samples - len(todo)
+    report(before, settings.samples)
+    with bar, sf.SweepWriter(out, metadata, columns, append=resume and out.exists(), replace=replace,
+                             replace_measurement=replace_measurement) as writer:
         for i, value in todo:
             t_int = settings.integration_time_s
             if settings.sweep == "distance":
@@ -178,14 +188,15 @@ def run_campaign(settings: CampaignSettings, *, stage, camera, lux, out: str | P
                 "stage_position_m": position, "requested_value": float(value), "elapsed_s": time.monotonic() - t0,
             }
             if settings.raw_dir is not None:
-                np.savez(Path(settings.raw_dir) / f"point_{i:04d}.npz", depth_m=frames.depth_m,
-                         amplitude_lsb=frames.amplitude_lsb, valid=frames.valid, **{k: row[k] for k in
-                         ("distance_m", "integration_time_s", "illuminance_lx")})
+                with atomic_path(Path(settings.raw_dir) / f"point_{i:04d}.npz") as tmp, open(tmp, "wb") as fh:
+                    np.savez(fh, depth_m=frames.depth_m, amplitude_lsb=frames.amplitude_lsb, valid=frames.valid,
+                             **{k: row[k] for k in ("distance_m", "integration_time_s", "illuminance_lx")})
             if gray:  # a gray value is not the model's amplitude: its own columns (module docstring)
                 row["gray_value_mean"], row["gray_value_std"] = row.pop("amplitude_mean_lsb"), row.pop(
                     "amplitude_std_lsb")
             writer.write_row(row)
             written += 1
+            report(before + written, settings.samples)
             bar.update(1)
     return written
 

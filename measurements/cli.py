@@ -28,6 +28,9 @@ def register(subparsers) -> None:
                            choices=opt.choices if opt.kind == "choice" else None)
     p.add_argument("--check", action="store_true", help="validate everything, print the plan, record nothing")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    from tofjax.cli import add_output_options
+
+    add_output_options(p, resume="--resume")
     p.set_defaults(run=run)
 
 
@@ -40,7 +43,8 @@ def _describe(plan, points) -> str:
 
 
 def run(args) -> int:
-    from tofjax.cli import CommandError, check_output_dir, check_output_file
+    from tofjax.cli import CommandError, check_output_file, on_interrupt
+    from tofjax.outputs import OutputError, check_output
 
     from . import _registry as reg
     from ._settings import CampaignInputError, resolve
@@ -57,9 +61,15 @@ def run(args) -> int:
 
     config = tj.load_config(plan["config"]) if plan["config"] is not None else tj.Config()
     out = plan["out"]
-    check_output_file(out, plan.name("out"))
+    resume = bool(plan["resume"]) and out.exists()
+    if not resume:  # a new recording: an existing file is kept unless the user says otherwise
+        check_output_file(out, plan.name("out"), args, resume_option="--resume")
     if plan["raw_dir"] is not None:
-        check_output_dir(plan["raw_dir"], plan.name("raw_dir"))
+        try:  # --resume adds the missing points' files to it
+            check_output(plan["raw_dir"], plan.name("raw_dir"), overwrite=bool(plan["resume"] or args.overwrite),
+                         directory=True)
+        except OutputError as err:
+            raise CommandError(str(err).replace("use --overwrite", "use --resume to add to it, --overwrite"), 2) from None
     settings = CampaignSettings(plan["sweep"], plan["start"], plan["stop"], plan["samples"], plan["frames"],
                                 plan["roi"], plan["distance"], plan["integration_time"], plan["lux_value"],
                                 plan["settle"], plan["raw_dir"])
@@ -91,9 +101,16 @@ def run(args) -> int:
         if plan["camera"] == "virtual":
             meta["source"] = "simulation"
             meta["note"] = "virtual camera: rendered by tofjax's Monte Carlo, not a measurement"
+        def done_note(done: int, total: int) -> None:
+            on_interrupt(f"after {done} of {total} points; every completed point is in {out}; continue with --resume"
+                         if done else f"before the first point was measured ({out} holds every point recorded "
+                                      "before this run; continue with --resume)" if resume else
+                         "before the first point was measured; nothing was recorded")
+
         written = run_campaign(settings, stage=stage, camera=camera, lux=lux, out=out, metadata=meta,
                                resume=bool(plan["resume"]), distance_offset_m=plan["distance_offset"],
-                               progress=not args.quiet)
+                               progress=not args.quiet, replace=args.overwrite,
+                               replace_measurement=args.force_replace_measurement, on_point=done_note)
     except DeviceError as err:  # during the recording: every completed row is in the file
         # A lux meter without its operator is an input problem (2); a device that failed, a fault (1).
         raise CommandError(f"{err} (every completed point is in {out}; --resume continues)",

@@ -94,9 +94,9 @@ def test_compare_command_writes_tables_and_an_html_report(files, tmp_path, capsy
     images = re.findall(r"data:image/png;base64,([A-Za-z0-9+/=]+)", html)
     assert len(images) == 2 and base64.b64decode(images[0])[:4] == b"\x89PNG"
     assert "| depth_only.csv | depth_std_m | 12 | 12 | 1.000 |" in (out / "comparison.md").read_text()
-    assert main(["compare", str(files[2]), "--out", str(out)]) == 2
+    assert main(["compare", str(files[2]), "--out", str(out), "--overwrite"]) == 2
     assert "measured at 2 modulation frequencies" in capsys.readouterr().err
-    assert main(["compare", str(files[2]), "--config", str(dual), "--out", str(out)]) == 0
+    assert main(["compare", str(files[2]), "--config", str(dual), "--out", str(out), "--overwrite"]) == 0
 
 
 def test_fused_noise_matches_the_monte_carlo_for_every_fusion():

@@ -174,26 +174,56 @@ def two_bounce_returns(illumination: Illumination, falloff_exponent, baseline_m,
 
 
 def save_returns(path, returns: Returns) -> None:
-    """Write ``returns`` as NPZ: arrays ``path_m``, ``radiance_per_w`` (rows, cols, returns),
-    ``ambient_reflectivity`` and ``radial_m`` (rows, cols), and ``format = "tofjax-returns/1"``."""
-    np.savez_compressed(path, format=np.array("tofjax-returns/1"), path_m=np.asarray(returns.path_m),
-                        radiance_per_w=np.asarray(returns.radiance_per_w),
-                        ambient_reflectivity=np.asarray(returns.ambient_reflectivity),
-                        radial_m=np.asarray(returns.radial_m))
+    """Write ``returns`` as NPZ (atomically, :mod:`tofjax.outputs`): arrays ``path_m``,
+    ``radiance_per_w`` (rows, cols, returns), ``ambient_reflectivity`` and ``radial_m`` (rows,
+    cols), and ``format = "tofjax-returns/1"``."""
+    from .outputs import atomic_path
+
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        np.savez_compressed(fh, format=np.array("tofjax-returns/1"), path_m=np.asarray(returns.path_m),
+                            radiance_per_w=np.asarray(returns.radiance_per_w),
+                            ambient_reflectivity=np.asarray(returns.ambient_reflectivity),
+                            radial_m=np.asarray(returns.radial_m))
 
 
-def load_returns(path, shape: tuple[int, int] | None = None) -> Returns:
+#: The arrays of a returns file and their allowed values: (lowest, highest, infinity allowed, unit).
+#: Paths: a direct return travels twice the distance (scene.distance_m <= 1000 m), a multi-bounce
+#: one farther; radiance: the brightest direct return, a white wall at 1 mm, is about 1e5 per W.
+RETURNS_RANGES = {
+    "path_m": (0.0, 1e4, False, "m"),
+    "radiance_per_w": (0.0, 1e9, False, "W m^-2 sr^-1 per W"),
+    "ambient_reflectivity": (0.0, 1.0, False, "1"),
+    "radial_m": (0.0, 1e3, True, "m (inf: no surface)"),
+}
+
+
+def check_values(name: str, key: str, value: np.ndarray) -> None:
+    """``ValueError`` naming the file, the array, the first bad element and the allowed range of
+    :data:`RETURNS_RANGES`."""
+    lo, hi, allow_inf, unit = RETURNS_RANGES[key]
+    finite = np.isfinite(value)
+    bad = ~(finite | (allow_inf & np.isposinf(value))) | (finite & ((value < lo) | (value > hi)))
+    if np.any(bad):
+        i = tuple(int(x) for x in np.argwhere(bad)[0])
+        inf = " or inf" if allow_inf else ""
+        raise ValueError(f"{name}: {key}{list(i)} = {float(value[i])!r} is out of range: allowed {lo:g} <= value <= "
+                         f"{hi:g}{inf} [{unit}]")
+
+
+def load_returns(path, shape: tuple[int, int] | None = None, *, max_bytes: int | None = None) -> Returns:
     """Read an NPZ of returns (:func:`save_returns`'s arrays; ``ambient_reflectivity`` defaults to 0
-    and ``radial_m`` to half the first return's path). Raises ``ValueError`` with one line naming
-    the file and the array for a missing array, a wrong shape, or a negative or non-finite value;
-    ``shape``: the frame's (rows, cols) the file must match."""
+    and ``radial_m`` to half the path of each pixel's strongest return, inf where it has none).
+    Raises ``ValueError`` with one line naming the file (and the array) for a file that is not an
+    NPZ file or is damaged, a missing array, an array that is not numbers, a wrong shape, or a value
+    outside :data:`RETURNS_RANGES`; ``shape``: the frame's (rows, cols) the file must match;
+    ``max_bytes``: the most memory its arrays may take (checked from their headers before any is
+    read; default: what this process has available)."""
+    from ._limits import available_memory_bytes
+    from ._npz import npz_arrays
+
     name = str(path)
-    try:
-        data = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as err:
-        raise ValueError(f"{name}: not a readable NPZ file of returns ({err})") from None
-    with data:
-        arrays = {k: np.asarray(data[k]) for k in data.files}
+    arrays = npz_arrays(path, tuple(RETURNS_RANGES), max_bytes=available_memory_bytes() // 2 if max_bytes is None
+                        else max_bytes)
     for key in ("path_m", "radiance_per_w"):
         if key not in arrays:
             raise ValueError(f"{name}: array {key!r} is missing: a returns file holds path_m and radiance_per_w "
@@ -201,21 +231,23 @@ def load_returns(path, shape: tuple[int, int] | None = None) -> Returns:
     p, rad = arrays["path_m"].astype(float), arrays["radiance_per_w"].astype(float)
     if p.ndim == 2:
         p, rad = p[..., None], rad[..., None]
-    if p.ndim != 3 or p.shape != rad.shape:
+    if p.ndim != 3 or p.shape != rad.shape or p.shape[-1] < 1:
         raise ValueError(f"{name}: path_m has shape {p.shape} and radiance_per_w {rad.shape}: allowed equal shapes "
-                         "(rows, cols, returns)")
+                         "(rows, cols, returns) with at least one return per pixel")
     if shape is not None and p.shape[:2] != tuple(shape):
         raise ValueError(f"{name}: path_m has {p.shape[0]} x {p.shape[1]} pixels, the camera {shape[0]} x {shape[1]} "
                          "(rows x cols; camera.optical_area_m / camera.pixel_pitch_m)")
     rows, cols = p.shape[:2]
-    ambient = arrays.get("ambient_reflectivity", np.zeros((rows, cols))).astype(float)
-    radial = arrays.get("radial_m", 0.5 * p[..., 0]).astype(float)
-    for key, value, allow_inf in (("path_m", p, False), ("radiance_per_w", rad, False),
-                                  ("ambient_reflectivity", ambient, False), ("radial_m", radial, True)):
-        if value.shape[:2] != (rows, cols):
-            raise ValueError(f"{name}: {key} has shape {value.shape}: allowed ({rows}, {cols}{', ...' if value.ndim > 2 else ''})")
-        bad = ~(np.isfinite(value) | (allow_inf & np.isposinf(value))) | (value < 0)
-        if np.any(bad):
-            i = tuple(int(x) for x in np.argwhere(bad)[0])
-            raise ValueError(f"{name}: {key}{list(i)} = {float(value[i])!r} is out of range: allowed finite values >= 0")
+    check_values(name, "path_m", p)
+    check_values(name, "radiance_per_w", rad)
+    ambient = arrays["ambient_reflectivity"].astype(float) if "ambient_reflectivity" in arrays else np.zeros((rows, cols))
+    if "radial_m" in arrays:
+        radial = arrays["radial_m"].astype(float)
+    else:  # half the strongest return's path: the distance of a direct return without baseline
+        strongest = np.take_along_axis(p, np.argmax(rad, axis=-1)[..., None], axis=-1)[..., 0]
+        radial = np.where(np.max(rad, axis=-1) > 0.0, 0.5 * strongest, np.inf)
+    for key, value in (("ambient_reflectivity", ambient), ("radial_m", radial)):
+        if value.shape != (rows, cols):
+            raise ValueError(f"{name}: {key} has shape {value.shape}: allowed ({rows}, {cols})")
+        check_values(name, key, value)
     return Returns(jnp.asarray(p), jnp.asarray(rad), jnp.asarray(ambient), jnp.asarray(radial))

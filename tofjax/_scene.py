@@ -30,9 +30,15 @@ def _f64(x):
     return jnp.asarray(x, dtype=float)
 
 
+#: The most pixels a frame may have (2^24, 16.8 M: a 4K depth map twice over; today's ToF sensors
+#: have at most about 1.2 M). More would overflow the frames' 32-bit counters of phase images.
+MAX_PIXELS = 1 << 24
+
+
 def resolution(camera: Camera) -> tuple[int, int]:
     """(rows, columns) of the pixel array: ``optical_area_m / pixel_pitch_m``, which must be whole
-    numbers of pixels (within 1e-6 of one; ``ValueError`` naming both keys otherwise)."""
+    numbers of pixels (within 1e-6 of one), at most :data:`MAX_PIXELS` of them (``ValueError``
+    naming both keys otherwise)."""
     import numpy as np
 
     area, pitch = np.asarray(camera.optical_area_m, dtype=float), np.asarray(camera.pixel_pitch_m, dtype=float)
@@ -42,6 +48,10 @@ def resolution(camera: Camera) -> tuple[int, int]:
         raise ValueError(f"camera.optical_area_m = {area.tolist()!r} is not a whole number of pixels of "
                          f"camera.pixel_pitch_m = {pitch.tolist()!r} ({counts[0]:.4g} x {counts[1]:.4g}): allowed "
                          "optical_area_m = [columns x pitch_x, rows x pitch_y]")
+    if rounded[0] * rounded[1] > MAX_PIXELS:
+        raise ValueError(f"camera.optical_area_m / camera.pixel_pitch_m = {rounded[0]:.4g} x {rounded[1]:.4g} = "
+                         f"{rounded[0] * rounded[1]:.3g} pixels is out of range: allowed at most {MAX_PIXELS} "
+                         f"(2^24) pixels")
     return int(rounded[1]), int(rounded[0])
 
 

@@ -18,9 +18,12 @@ warm.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
+import signal
 import sys
+import threading
 from importlib.metadata import entry_points
 from pathlib import Path
 
@@ -89,40 +92,59 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"tofjax: error: {message}\n")
 
 
-def check_output_file(path: Path, option: str) -> None:
-    """Before any work: make ``path``'s directory (as every command does) and prove the file can be
-    written (an existing file is opened for appending and left as it is; a new one is created and
-    removed). Raises :class:`CommandError` (exit status 2) naming ``option``."""
-    path = Path(path)
+def add_output_options(parser, *, resume: str | None = None) -> None:
+    """``--overwrite`` and ``--force-replace-measurement`` (:mod:`tofjax.outputs`), the same for
+    every command that writes; ``resume``: the command's option that continues an output instead."""
+    more = f" ({resume} continues it instead)" if resume else ""
+    parser.add_argument("--overwrite", action="store_true",
+                        help=f"replace an existing output{more}; without it an existing non-empty output is refused")
+    parser.add_argument("--force-replace-measurement", action="store_true",
+                        help="also replace a measured sweep file (source: measurement), which --overwrite never does")
+
+
+def check_output_file(path: Path, option: str, args=None, *, resume_option: str | None = None) -> None:
+    """Before any work: may the file ``path`` be written? An existing non-empty one is refused
+    unless ``args.overwrite``, a measurement unless ``args.force_replace_measurement`` as well
+    (:func:`tofjax.outputs.check_output`); makes its directory and proves it writable. Raises
+    :class:`CommandError` (exit status 2) naming ``option``."""
+    from .outputs import OutputError, check_output
+
     try:
-        if path.is_dir():
-            raise CommandError(f"{option} {path}: is a directory; give a file name", 2)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if path.exists():
-            with open(path, "ab"):
-                pass
-        else:
-            with open(path, "xb"):
-                pass
-            path.unlink()
-    except OSError as err:
-        raise CommandError(f"{option} {path}: cannot write there: {err.strerror or err}", 2) from None
+        check_output(path, option, overwrite=bool(getattr(args, "overwrite", False)),
+                     force_measurement=bool(getattr(args, "force_replace_measurement", False)),
+                     resume_option=resume_option)
+    except OutputError as err:
+        raise CommandError(str(err), 2) from None
 
 
-def check_output_dir(path: Path, option: str) -> None:
-    """Before any work: make directory ``path`` and prove a file can be written in it (exit 2 naming
-    ``option`` otherwise)."""
-    import tempfile
+def check_output_dir(path: Path, option: str, args=None) -> None:
+    """Before any work: may the output directory ``path`` be written (as :func:`check_output_file`;
+    a directory holding files tofjax did not write is refused even with ``--overwrite``)?"""
+    from .outputs import OutputError, check_output
 
-    path = Path(path)
     try:
-        if path.exists() and not path.is_dir():
-            raise CommandError(f"{option} {path}: is a file, not a directory", 2)
-        path.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=path):
-            pass
-    except OSError as err:
-        raise CommandError(f"{option} {path}: cannot write there: {err.strerror or err}", 2) from None
+        check_output(path, option, overwrite=bool(getattr(args, "overwrite", False)),
+                     force_measurement=bool(getattr(args, "force_replace_measurement", False)), directory=True)
+    except OutputError as err:
+        raise CommandError(str(err), 2) from None
+
+
+def output_dir(path: Path, command: str, args=None):
+    """The :class:`tofjax.outputs.OutputDir` of a command's output directory (replaced as a whole)."""
+    from .outputs import OutputDir
+
+    return OutputDir(path, command, replace=bool(getattr(args, "overwrite", False)))
+
+
+#: What the command has kept so far, for the line an interrupt (Ctrl-C) prints (:func:`on_interrupt`).
+_interrupt_note = None
+
+
+def on_interrupt(note) -> None:
+    """Say what an interrupt now would leave behind: a string or a function returning one
+    (``"after 5 of 20 points; every completed point is in ow.csv; continue with --resume"``)."""
+    global _interrupt_note
+    _interrupt_note = note
 
 
 def positive_int(text: str) -> int:
@@ -191,6 +213,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="also write every applicable plot as PNG and a self-contained report.html into DIR")
     sim.add_argument("--check", action="store_true", help="validate everything, print the plan, compute nothing")
     sim.add_argument("--quiet", action="store_true", help="no progress report")
+    add_output_options(sim)
 
     from ._presets import PRESETS
 
@@ -202,6 +225,7 @@ def build_parser() -> argparse.ArgumentParser:
     cfg.add_argument("--preset", choices=tuple(PRESETS),
                      help="a public camera: " + "; ".join(f"{n}: {p.title}" for n, p in PRESETS.items()))
     cfg.add_argument("--out", type=Path, help="write to this file instead of standard output (its directory is made)")
+    add_output_options(cfg)
     from . import render_cli
 
     render_cli.register(sub)
@@ -254,6 +278,14 @@ def _check_sweep_range(args) -> None:
                               f"{key.range_text()} [{key.unit}]")
     if args.start is not None and args.stop is not None and not args.start < args.stop:
         raise _UsageError(f"--from = {args.start!r} must be less than --to = {args.stop!r}")
+    # Sizes before any work: the results are held in memory (about 1 kB per sample; a million
+    # samples peak at about 1.1 GB), the frames are chunked (any count runs in bounded memory).
+    for flag, value, dotted, why in (("--samples", args.samples, "scene.samples",
+                                      "a sweep's results are held in memory, about 1 kB per sample"),
+                                     ("--iterations", args.iterations, "pixel.iterations", "frames per sample")):
+        key = KEY_BY_DOTTED[dotted]
+        if value is not None and not in_range(key, value):
+            raise _UsageError(f"{flag} = {value} is out of range: allowed {key.range_text()}, as {dotted} ({why})")
 
 
 def _simulate(args) -> int:
@@ -261,7 +293,7 @@ def _simulate(args) -> int:
 
     from ._config import Config, load_config
     from ._run import run_sweep, sweep_file_contents
-    from .progress import Progress, reporting
+    from .progress import Progress, compiling, reporting
     from .sweepfile import write_sweep
 
     if args.out is None and args.report is None:
@@ -274,9 +306,13 @@ def _simulate(args) -> int:
     iterations = args.iterations or config.iterations
     freqs = config.modulation_frequencies_hz
     # Outputs before any work: a run must not end in "cannot write" after minutes.
+    from .outputs import relative_inside
+
+    in_report = relative_inside(out, args.report) if args.report is not None else None
     if args.report is not None:
-        check_output_dir(args.report, "--report")
-    check_output_file(out, "--out" if args.out is not None else "--report")
+        check_output_dir(args.report, "--report", args)
+    if in_report is None:
+        check_output_file(out, "--out", args)
     if args.method == "mc":
         images = sweep.samples * iterations * params.pixel.n_phases * len(freqs)
         plan = (f"{sweep.samples} samples x {iterations} frames x {params.pixel.n_phases} phase images"
@@ -288,17 +324,28 @@ def _simulate(args) -> int:
         print(f"plan: {args.sweep} sweep, {plan}; into {out}" + (f" and {args.report}" if args.report else ""))
         return 0
     enable_compilation_cache()
+    on_interrupt(untouched_note(out, args.report))
     label = f"simulating {sweep.samples} samples" + (f" x {iterations} frames" if args.method == "mc" else "")
-    with reporting(Progress(1, label, unit="chunk", enabled=not args.quiet)):
-        # The report's scatter plots show up to 200 frames per sample; a CSV needs none.
+    with reporting(Progress(1, label, unit="chunk", enabled=not args.quiet)), compiling(enabled=not args.quiet):
+        # The report's scatter plots show up to 200 frames per sample; a CSV needs none. The chunks
+        # run from Python even when quiet, so that Ctrl-C stops the run between chunks.
         run = run_sweep(config, sweep, args.method, iterations, args.seed, args.fixed_pattern,
-                        keep_frames=200 if args.report is not None else 0, progress=not args.quiet)
+                        keep_frames=200 if args.report is not None else 0, progress=True)
     result, multi, elapsed = run.result, run.multifrequency, run.elapsed_s
     metadata, columns = sweep_file_contents(run, str(args.config) if args.config else "(built-in defaults)")
-    try:
-        write_sweep(out, metadata, columns)
-    except OSError as err:
-        raise _UsageError(f"cannot write {out}: {err.strerror or err}") from None
+    replace = dict(replace=args.overwrite, replace_measurement=args.force_replace_measurement)
+    with contextlib.ExitStack() as stack:
+        folder = stack.enter_context(output_dir(args.report, "tofjax simulate", args)) if args.report else None
+        try:
+            write_sweep(out if in_report is None else folder.file(str(in_report)), metadata, columns, **replace)
+            if folder is not None:
+                from .report import write_report
+
+                if not args.quiet:
+                    print("writing the report ...", file=sys.stderr, flush=True)
+                write_report(folder.staging, config, result, elapsed, out, multifrequency=multi)
+        except OSError as err:
+            raise _UsageError(f"cannot write {out}: {err.strerror or err}") from None
     print(_summary(result, elapsed, out))
     if multi is not None:
         wrong = np.asarray(multi.wrong_unwrap_fraction)
@@ -307,20 +354,39 @@ def _simulate(args) -> int:
               + (f"; wrong unwraps up to {100 * np.nanmax(wrong):.1f} % of valid frames" if np.any(np.isfinite(wrong))
                  else " (analytic: for the correct unwrap; wrong unwraps need --method mc)"))
     if args.report is not None:
-        from .report import write_report
-
-        if not args.quiet:
-            print("writing the report ...", file=sys.stderr, flush=True)
-        path = write_report(args.report, config, result, elapsed, out, multifrequency=multi)
-        print(f"report: {path}")
+        print(f"report: {args.report / 'report.html'}")
     return 0
 
 
+def untouched_note(*paths) -> str:
+    """The interrupt note of a run that writes its outputs only at the end: ``before anything was
+    written (sweep.csv is as before the run)``."""
+    shown = [str(p) for p in paths if p is not None]
+    existing = [p for p in shown if Path(p).exists()]
+    if not existing:
+        return "before anything was written (no output exists yet)"
+    return "before anything was written (" + ", ".join(existing) + (" is" if len(existing) == 1 else " are") \
+        + " as before the run)"
+
+
+def _sigint(signum, frame):
+    from .progress import interrupt
+
+    interrupt()
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
+    on_interrupt(None)
     args = build_parser().parse_args(argv)
     from ._schema import ConfigError
+    from .progress import clear_interrupt
     from .sweepfile import SweepFileError
 
+    clear_interrupt()
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGINT, _sigint)
     try:
         if getattr(args, "run", None) is not None:  # calibrate, record, ...: they compute, so cache
             enable_compilation_cache(fast_compile=args.command == "calibrate")
@@ -331,26 +397,38 @@ def main(argv: list[str] | None = None) -> int:
 
             text = preset_text(args.preset) if args.preset else default_config_text()
             if args.out:
-                check_output_file(args.out, "--out")  # makes the directory, as simulate does
+                from .outputs import write_text
+
+                check_output_file(args.out, "--out", args)  # makes the directory, as simulate does
                 try:
-                    args.out.write_text(text, encoding="utf-8")
+                    write_text(args.out, text, replace=args.overwrite, replace_measurement=args.force_replace_measurement)
                 except OSError as err:
                     raise _UsageError(f"cannot write {args.out}: {err.strerror or err}") from None
             else:
                 print(text, end="")
             return 0
         return _simulate(args)
+    except KeyboardInterrupt:
+        note = _interrupt_note() if callable(_interrupt_note) else _interrupt_note
+        print("tofjax: interrupted" + (f" {note}" if note else ""), file=sys.stderr, flush=True)
+        return 130
     except CommandError as err:
         print(f"tofjax: error: {err}", file=sys.stderr)
         return err.exit_code
     except (ConfigError, SweepFileError, ValueError) as err:
         print(f"tofjax: error: {err}", file=sys.stderr)
         return 2
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
 
 
 def entry_point() -> None:  # pragma: no cover - thin wrapper for the console script
     sys.exit(main())
 
 
-if __name__ == "__main__":  # pragma: no cover
-    entry_point()
+if __name__ == "__main__":  # pragma: no cover - python -m tofjax.cli
+    # The commands reach this module's state (the interrupt note) as tofjax.cli, not as __main__.
+    from tofjax.cli import entry_point as _entry_point
+
+    _entry_point()

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .outputs import atomic_path, write_bytes, write_text
+
 #: Map name -> (title, unit, colour map) of the PNGs.
 MAPS = {
     "radial_m": ("Measured radial distance", "m", "viridis"),
@@ -46,9 +48,11 @@ def frame_arrays(frame, predicted=None) -> dict[str, np.ndarray]:
 
 
 def write_npz(path, arrays: dict[str, np.ndarray]) -> Path:
-    """All arrays in one compressed NPZ (``format = "tofjax-frame/1"``)."""
+    """All arrays in one compressed NPZ (``format = "tofjax-frame/1"``), written atomically
+    (:mod:`tofjax.outputs`)."""
     path = Path(path)
-    np.savez_compressed(path, format=np.array("tofjax-frame/1"), **arrays)
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        np.savez_compressed(fh, format=np.array("tofjax-frame/1"), **arrays)
     return path
 
 
@@ -65,9 +69,7 @@ def write_ply(path, points_m: np.ndarray, values: np.ndarray | None = None) -> P
     header = ["ply", "format binary_little_endian 1.0", "comment tofjax frame: x right, y up, z along the optical "
               "axis, metres", f"element vertex {len(pts)}"]
     header += [f"property float {name}" for name, _ in fields] + ["end_header"]
-    with open(path, "wb") as fh:
-        fh.write(("\n".join(header) + "\n").encode("ascii"))
-        fh.write(data.tobytes())
+    write_bytes(path, ("\n".join(header) + "\n").encode("ascii") + data.tobytes())
     return path
 
 
@@ -99,7 +101,8 @@ def write_png(path, image: np.ndarray, title: str, unit: str, cmap: str = "virid
     ax.set_xlabel("column")
     ax.set_ylabel("row")
     fig.colorbar(shown, ax=ax, label=unit, shrink=0.85)
-    fig.savefig(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
     plt.close(fig)
     return Path(path)
 
@@ -151,6 +154,10 @@ def headlines(arrays: dict[str, np.ndarray]) -> dict[str, float]:
     }
     if "predicted_std_m" in arrays and good.any():
         out["median_predicted_std_mm"] = float(1e3 * np.nanmedian(arrays["predicted_std_m"][good]))
+        # The two medians are of different pixel sets' noise distributions, so their quotient is not
+        # the agreement: the median of the per-pixel ratio is (the render summary reports it).
+        ratio = arrays["predicted_std_m"][good] / arrays["depth_std_m"][good]
+        out["median_noise_ratio"] = float(np.nanmedian(ratio)) if np.isfinite(ratio).any() else float("nan")
     return out
 
 
@@ -168,6 +175,18 @@ def write_report(directory, arrays: dict[str, np.ndarray], pngs: list[Path], tit
             "img{width:440px}td{padding:2px 10px}</style></head><body>"
             f"<h1>{html.escape(title)}</h1>{body}<h2>Headline numbers</h2><table>{rows}</table>"
             f"<h2>Images</h2>{images}</body></html>")
-    path = directory / "report.html"
-    path.write_text(page, encoding="utf-8")
-    return path
+    return write_text(directory / "report.html", page)
+
+
+def write_frame(directory, arrays: dict[str, np.ndarray], title: str, lines: list[str]) -> dict:
+    """Everything ``tofjax render`` writes into ``directory``: ``frame.npz``, the PNG maps,
+    ``points.ply`` (the good pixels, with their intensity) and ``report.html``. Returns
+    ``{"pngs": [...], "points": n}``."""
+    directory = Path(directory)
+    write_npz(directory / "frame.npz", arrays)
+    pngs = write_maps(directory, arrays)
+    keep = (arrays["flags"] == 0) & np.isfinite(arrays["radial_m"])
+    cloud = arrays["radial_m"][keep][:, None] * arrays["direction"][keep]
+    write_ply(directory / "points.ply", cloud, arrays["intensity_e"][keep])
+    write_report(directory, arrays, pngs, title, lines)
+    return {"pngs": pngs, "points": len(cloud)}

@@ -10,9 +10,31 @@ takes minutes is never silent and a run that takes a second prints nothing. ``en
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import threading
 import time
+
+_interrupted = threading.Event()
+
+
+def interrupt() -> None:
+    """Record that the user interrupted the run (the commands' SIGINT handler calls it, then raises
+    ``KeyboardInterrupt``). Python drops an exception raised inside a finaliser or a weak-reference
+    callback, where a signal may land; :func:`check_interrupt` raises it again at the next progress
+    step, stage or output, so a Ctrl-C is never lost."""
+    _interrupted.set()
+
+
+def clear_interrupt() -> None:
+    _interrupted.clear()
+
+
+def check_interrupt() -> None:
+    """Raise ``KeyboardInterrupt`` if the run was interrupted (:func:`interrupt`)."""
+    if _interrupted.is_set():
+        raise KeyboardInterrupt
+
 
 #: A run shorter than this prints nothing.
 QUIET_FOR_S = 2.0
@@ -26,6 +48,11 @@ def _duration(seconds: float) -> str:
     if seconds < 5400:
         return f"{seconds / 60:.1f} min"
     return f"{seconds / 3600:.1f} h"
+
+
+def _count(x: float) -> int | float:
+    """A count as an integer where it is one (tqdm shows ``1.0/16.0`` for floats)."""
+    return int(x) if float(x).is_integer() else x
 
 
 class Progress:
@@ -86,6 +113,7 @@ class Progress:
         self.update(done - self.done)
 
     def update(self, n: float = 1) -> None:
+        check_interrupt()
         if not self.enabled:
             self.done += n
             return
@@ -100,10 +128,11 @@ class Progress:
                 if self._bar is None:
                     from tqdm import tqdm
 
-                    self._bar = tqdm(total=self.total, initial=self.done, desc=self.desc, unit=self.unit,
-                                     file=self.stream, leave=False, dynamic_ncols=True)
+                    self._bar = tqdm(total=_count(self.total), initial=_count(self.done), desc=self.desc,
+                                     unit=self.unit, file=self.stream, leave=False, dynamic_ncols=True)
                 else:
-                    self._bar.update(self.done - self._bar.n)
+                    self._bar.total = _count(self.total)
+                    self._bar.update(_count(self.done) - self._bar.n)
             elif now - self._last_line >= self.every_s and now - self._start >= self.quiet_for_s:
                 self._last_line = now
                 print(self.line(), file=self.stream, flush=True)
@@ -139,6 +168,7 @@ class reporting:  # noqa: N801 - used as a context manager, like a function
 
 def tick(total: int) -> None:
     """One more of ``total`` steps is done, for the reporter of :class:`reporting` (if any)."""
+    check_interrupt()
     progress = _current
     if progress is not None:
         progress.total = float(total)
@@ -148,3 +178,124 @@ def tick(total: int) -> None:
 def chunk_done(_dependency, total: int) -> None:
     """Host callback of a compiled loop (its first argument only orders it after the chunk)."""
     tick(total)
+
+
+#: Compiling longer than this (seconds, summed over the programs) is announced by :func:`compiling`.
+COMPILING_NOTICE_S = 2.0
+
+
+class compiling:  # noqa: N801 - used as a context manager, like a function
+    """Say ``compiling (first run; cached for next time) ...`` on standard error, once, when JAX
+    has spent more than :data:`COMPILING_NOTICE_S` compiling during the block (a cold run spends
+    most of its first seconds there, and would otherwise say nothing). It listens to JAX's own
+    monitoring events: a persistent-cache miss starts a compilation, the backend's compile duration
+    ends one; a thread looks every 0.1 s. ``enabled=False`` (``--quiet``) turns it off."""
+
+    def __init__(self, *, enabled: bool = True, stream=None, notice_s: float = COMPILING_NOTICE_S):
+        self.enabled = enabled
+        self.stream = sys.stderr if stream is None else stream
+        self.notice_s = notice_s
+        self.announced = False
+        self._spent = 0.0
+        self._since: float | None = None
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+
+    def _event(self, event: str, **_kwargs) -> None:
+        if event == "/jax/compilation_cache/cache_misses":
+            with self._lock:
+                self._since = time.monotonic()
+
+    def _duration(self, event: str, duration_s: float, **_kwargs) -> None:
+        if event == "/jax/core/compile/backend_compile_duration":
+            with self._lock:
+                self._spent += duration_s
+                self._since = None
+
+    def spent_s(self) -> float:
+        """Seconds spent compiling so far (a compilation under way included)."""
+        with self._lock:
+            return self._spent + (time.monotonic() - self._since if self._since is not None else 0.0)
+
+    def _watch(self) -> None:
+        while not self._stop.wait(0.1):
+            if self.spent_s() > self.notice_s:
+                import jax
+
+                cached = bool(jax.config.jax_compilation_cache_dir)
+                print("compiling (first run; cached for next time) ..." if cached else
+                      "compiling (the compilation cache is off) ...", file=self.stream, flush=True)
+                self.announced = True
+                return
+
+    def __enter__(self) -> compiling:
+        if self.enabled:
+            from jax import monitoring
+
+            monitoring.register_event_listener(self._event)
+            monitoring.register_event_duration_secs_listener(self._duration)
+            self._thread = threading.Thread(target=self._watch, daemon=True, name="tofjax-compiling")
+            self._thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.enabled:
+            from jax import monitoring
+
+            self._stop.set()
+            self._thread.join()
+            with contextlib.suppress(Exception):  # already unregistered: nothing to do
+                monitoring.unregister_event_listener(self._event)
+                monitoring.unregister_event_duration_listener(self._duration)
+
+
+class Stages:
+    """The named stages of a run (``render``: the ray cast, the two-bounce light, the frames, the
+    analytic image, the writing), one line each on standard error, ``render: casting rays ...``.
+    As with :class:`Progress`, a run shorter than :data:`QUIET_FOR_S` prints nothing: a stage is
+    announced when it starts after that, or, if it started before, when the run reaches it (a
+    thread waits for that moment). A context manager; calling it starts the next stage."""
+
+    def __init__(self, desc: str, *, enabled: bool = True, stream=None, quiet_for_s: float = QUIET_FOR_S,
+                 clock=time.monotonic):
+        self.desc, self.enabled = desc, enabled
+        self.stream = sys.stderr if stream is None else stream
+        self.quiet_for_s = quiet_for_s
+        self._clock = clock
+        self._start = clock()
+        self._current: str | None = None
+        self._shown: str | None = None
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def _show(self) -> None:  # with the lock held
+        if self._current is not None and self._shown != self._current:
+            elapsed = self._clock() - self._start
+            print(f"{self.desc}: {self._current} ... ({_duration(elapsed)} elapsed)", file=self.stream, flush=True)
+            self._shown = self._current
+
+    def __call__(self, label: str) -> None:
+        check_interrupt()
+        if not self.enabled:
+            return
+        with self._lock:
+            self._current = label
+            if self._clock() - self._start >= self.quiet_for_s:
+                self._show()
+
+    def _watch(self) -> None:
+        if not self._stop.wait(max(self.quiet_for_s - (self._clock() - self._start), 0.0)):
+            with self._lock:
+                self._show()
+
+    def __enter__(self) -> Stages:
+        if self.enabled:
+            self._thread = threading.Thread(target=self._watch, daemon=True, name="tofjax-stages")
+            self._thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()

@@ -6,14 +6,14 @@ colour bars, ``points.ply`` (the good pixels' point cloud) and a self-contained 
 
 from __future__ import annotations
 
+import contextlib
 import math
-import sys
 import time
 from pathlib import Path
 
 
 def register(subparsers) -> None:
-    from .cli import positive_int  # loaded already: cli registers this command
+    from .cli import add_output_options  # loaded already: cli registers this command
 
     p = subparsers.add_parser(
         "render", help="render full frames of a scene: depth, noise image, amplitude, point cloud",
@@ -27,7 +27,8 @@ def register(subparsers) -> None:
     p.add_argument("--scene", required=True, help="NAME[:key=value,...] or FILE.npz (default parameters: "
                                                   "tofjax.scenes)")
     p.add_argument("--config", type=Path, help="TOML configuration (default: built-in defaults)")
-    p.add_argument("--frames", type=positive_int, default=100, help="Monte Carlo frames (default 100)")
+    p.add_argument("--frames", type=_frame_count, default=100,
+                   help=f"Monte Carlo frames (default 100; at most {MAX_FRAMES:.0e}, as pixel.iterations)")
     p.add_argument("--keep-frames", type=_non_negative_int, default=1,
                    help="frames to keep whole in frame.npz (default 1; at most --frames)")
     p.add_argument("--seed", type=_non_negative_int, default=0, help="random seed of the frames (default 0)")
@@ -40,7 +41,25 @@ def register(subparsers) -> None:
     p.add_argument("--out", type=Path, required=True, help="output directory")
     p.add_argument("--check", action="store_true", help="validate everything, print the plan, render nothing")
     p.add_argument("--quiet", action="store_true", help="no progress report")
+    add_output_options(p)
     p.set_defaults(run=run)
+
+
+#: The most frames of one render (the range of ``pixel.iterations``, frames per point).
+MAX_FRAMES = 10_000_000
+
+
+def _frame_count(text: str) -> int:
+    import argparse
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if not 1 <= value <= MAX_FRAMES:
+        raise argparse.ArgumentTypeError(f"{value} is out of range: allowed integer 1 <= value <= {MAX_FRAMES} "
+                                         "(as pixel.iterations)")
+    return value
 
 
 def _non_negative_int(text: str) -> int:
@@ -104,43 +123,102 @@ def parse_scene(text: str):
     return builder, name, kwargs
 
 
-def _load_npz_scene(path: str, params, settings):
+#: A depth map's allowed depths, m (non-finite or non-positive ones are misses: no surface there).
+DEPTH_RANGE_M = (1e-3, 1e3)
+_DEPTH_ARRAYS = ("z_m", "radial_m", "reflectivity")
+
+
+@contextlib.contextmanager
+def _scene_option():
+    """Messages about the scene file name the option: ``--scene FILE.npz: ...``."""
+    try:
+        yield
+    except ValueError as err:
+        if str(err).startswith("--scene"):
+            raise
+        raise ValueError(f"--scene {err}") from None
+
+
+def _npz_scene_kind(path: str) -> tuple[str, int]:
+    """What an NPZ scene holds, from its arrays' headers only: ``("returns", returns per pixel)`` or
+    ``("depth", 1)``; ``ValueError`` naming the file for anything else."""
+    from ._npz import npz_names, npz_shapes
+
+    with _scene_option():
+        names = npz_names(path)
+        found = npz_shapes(path, ("path_m",)).get("path_m", ())
+    if "path_m" in names:
+        return "returns", int(found[-1]) if len(found) == 3 else 1
+    if "z_m" in names or "radial_m" in names:
+        return "depth", 1
+    raise ValueError(f"--scene {path}: holds neither returns (path_m, radiance_per_w) nor a depth map (z_m or "
+                     f"radial_m); found {', '.join(names) or 'no arrays'}")
+
+
+def _load_npz_scene(path: str, params, settings, max_bytes: int):
     import numpy as np
 
     import tofjax as tj
 
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            names = set(data.files)
-            arrays = {k: np.asarray(data[k]) for k in names if k in ("z_m", "radial_m", "reflectivity")}
-    except (OSError, ValueError) as err:
-        raise ValueError(f"--scene {path}: not a readable NPZ file ({err})") from None
+    from ._npz import npz_arrays
+
     shape = tj.frame_shape(params)
-    if "path_m" in names:
-        return tj.load_returns(path, shape)
-    key = "z_m" if "z_m" in arrays else "radial_m" if "radial_m" in arrays else None
-    if key is None:
-        raise ValueError(f"--scene {path}: holds neither returns (path_m, radiance_per_w) nor a depth map (z_m or "
-                         f"radial_m); found {', '.join(sorted(names)) or 'nothing'}")
+    kind, _ = _npz_scene_kind(path)
+    with _scene_option():
+        if kind == "returns":
+            return tj.load_returns(path, shape, max_bytes=max_bytes)
+        arrays = npz_arrays(path, _DEPTH_ARRAYS, max_bytes=max_bytes)
+    key = "z_m" if "z_m" in arrays else "radial_m"
     depth = arrays[key].astype(float)
     rho = arrays.get("reflectivity", np.asarray(float(params.scene.reflectivity))).astype(float)
     if depth.shape != shape:
         raise ValueError(f"--scene {path}: {key} has shape {depth.shape}, the camera {shape} (rows, cols)")
+    lo, hi = DEPTH_RANGE_M
+    surface = np.isfinite(depth) & (depth > 0)  # the rest are misses (no surface), as documented
+    bad = surface & ((depth < lo) | (depth > hi))
+    if np.any(bad):
+        i = [int(x) for x in np.argwhere(bad)[0]]
+        raise ValueError(f"--scene {path}: {key}{i} = {float(depth[tuple(i)])!r} is out of range: allowed {lo:g} <= "
+                         f"value <= {hi:g} [m] (inf, NaN or <= 0: no surface)")
     if rho.shape not in ((), shape) or not np.all(np.isfinite(rho) & (rho >= 0) & (rho <= 1)):
         raise ValueError(f"--scene {path}: reflectivity must be a number or a {shape} map with 0 <= value <= 1")
     return tj.depth_returns(params, settings, depth, rho, radial=key == "radial_m")
 
 
+def _check_size(name: str, geometry, params, settings, shape) -> int:
+    """Refuse a frame whose run would not fit this process's memory (before any work, naming the
+    resolution); returns the bytes an NPZ scene's arrays may take."""
+    from ._limits import available_memory_bytes, frame_memory_bytes, size_text
+
+    rows, cols = shape
+    s = settings.subpixel_samples
+    available = available_memory_bytes()
+    if geometry is None:
+        kind, per_pixel = _npz_scene_kind(name)
+        s = 1 if kind == "depth" else s
+        patches = 0
+    else:
+        patches = 0 if geometry.patches is None else int(geometry.patches.area_m2.shape[0])
+        per_pixel = s * s + (32 if patches else 0)
+    need = frame_memory_bytes(rows * cols, s, per_pixel, patches, cols)
+    if need > available:
+        raise ValueError(f"the camera's {rows} x {cols} pixels (camera.optical_area_m / camera.pixel_pitch_m) with "
+                         f"{s}^2 rays and {per_pixel} returns per pixel need about {size_text(need)} to render, more "
+                         f"than the {size_text(available)} this process can use: choose fewer pixels or fewer "
+                         "frame.subpixel_samples")
+    return max(available - need, 0) // 2
+
+
 def run(args) -> int:
-    from .cli import check_output_dir
+    from .cli import check_output_dir, on_interrupt, output_dir, untouched_note
+    from .progress import Progress, Stages, compiling, reporting
 
     builder, name, kwargs = parse_scene(args.scene)  # before JAX starts
     if args.keep_frames > args.frames:
         raise ValueError(f"--keep-frames = {args.keep_frames} is out of range: allowed 0 <= value <= --frames = "
                          f"{args.frames}")
-    check_output_dir(args.out, "--out")
+    check_output_dir(args.out, "--out", args)
     import jax
-    import numpy as np
 
     import tofjax as tj
 
@@ -149,46 +227,60 @@ def run(args) -> int:
     config = tj.load_config(args.config) if args.config else tj.Config()
     params, settings = config.params, config.frame
     rows, cols = tj.frame_shape(params)
-    from ._montecarlo import check_counts
+    from ._montecarlo import max_keep_frames
 
-    check_counts(args.frames, args.keep_frames, rows * cols, params.pixel.n_phases)
+    if len(config.modulation_frequencies_hz) > 1:
+        raise ValueError("render simulates one modulation frequency: illumination_waveform."
+                         f"extra_modulation_frequencies_hz = {config.values['illumination_waveform']['extra_modulation_frequencies_hz']}"
+                         " is not supported by render (remove it, or sweep the centre pixel with tofjax simulate)")
+    geometry = builder(**kwargs) if builder is not None else None
+    npz_bytes = _check_size(name, geometry, params, settings, (rows, cols))
+    most = max_keep_frames(rows * cols, params.pixel.n_phases)
+    if args.keep_frames > most:
+        raise ValueError(f"--keep-frames = {args.keep_frames} is out of range for {rows} x {cols} pixels: allowed 0 <= "
+                         f"value <= {most} (kept frames take at most 1 GiB; the statistics use every frame)")
     if args.check:
+        if geometry is None:  # validate what the run would read
+            _load_npz_scene(name, params, settings, npz_bytes)
         print(f"plan: {args.frames} frames of {rows} x {cols} pixels ({rows * cols * args.frames * params.pixel.n_phases:.3g}"
               f" phase images) of scene {name}, {settings.subpixel_samples}^2 rays per pixel; into {args.out}")
         return 0
+    on_interrupt(untouched_note(args.out))
     t0 = time.perf_counter()
-    if builder is None:
-        returns = _load_npz_scene(name, params, settings)
-    else:
-        returns = tj.scene_returns(params, settings, builder(**kwargs), sun_direction=args.sun)
-    pattern = tj.draw_pattern(params, settings, (rows, cols)) if args.fixed_pattern else None
-    t1 = time.perf_counter()
-    if not args.quiet:
-        print(f"rendering {args.frames} frames of {rows} x {cols} pixels ...", file=sys.stderr, flush=True)
-    scene = tj.prepare_frame(params, settings, returns, pattern)  # exposed once, for the frames and the analytic image
-    frame = jax.device_get(scene.render(jax.random.key(args.seed), args.frames, keep_frames=args.keep_frames,
-                                        progress=not args.quiet))
-    t2 = time.perf_counter()
-    predicted = jax.device_get(scene.predict())
-    t3 = time.perf_counter()
-    arrays = frameio.frame_arrays(frame, predicted)
-    frameio.write_npz(args.out / "frame.npz", arrays)
-    pngs = frameio.write_maps(args.out, arrays)
-    keep = (arrays["flags"] == 0) & np.isfinite(arrays["radial_m"])
-    cloud = arrays["radial_m"][keep][:, None] * arrays["direction"][keep]
-    frameio.write_ply(args.out / "points.ply", cloud, arrays["intensity_e"][keep])
-    source = str(args.config) if args.config else "built-in defaults"
-    lines = [f"tofjax {tj.__version__}; configuration: {source}; scene {args.scene}; {rows} x {cols} pixels, "
-             f"{settings.subpixel_samples}^2 rays per pixel, {returns.path_m.shape[-1]} returns per pixel.",
-             f"{args.frames} Monte Carlo frames (seed {args.seed}); fixed pattern: "
-             f"{'drawn from frame.seed = ' + str(settings.seed) if args.fixed_pattern else 'off (the mean pixel)'}.",
-             f"Timing: scene {t1 - t0:.2f} s, frames {t2 - t1:.2f} s, analytic noise image {t3 - t2:.2f} s "
-             "(compilation included)."]
-    report = frameio.write_report(args.out, arrays, pngs, f"tofjax render: {name}", lines)
+    with Stages("render", enabled=not args.quiet) as stage, compiling(enabled=not args.quiet):
+        if geometry is None:
+            stage(f"reading {name}")
+            returns = _load_npz_scene(name, params, settings, npz_bytes)
+        else:
+            bounce = " and the two-bounce light" if getattr(geometry, "patches", None) is not None else ""
+            stage(f"casting {settings.subpixel_samples}^2 rays per pixel of {rows} x {cols} pixels{bounce}")
+            returns = jax.block_until_ready(tj.scene_returns(params, settings, geometry, sun_direction=args.sun))
+        pattern = tj.draw_pattern(params, settings, (rows, cols)) if args.fixed_pattern else None
+        t1 = time.perf_counter()
+        stage(f"{args.frames} Monte Carlo frames")
+        scene = tj.prepare_frame(params, settings, returns, pattern)  # exposed once, for the frames and the analytic image
+        with reporting(Progress(1, f"render: {args.frames} frames", unit="chunk", enabled=not args.quiet)):
+            frame = jax.device_get(scene.render(jax.random.key(args.seed), args.frames,
+                                                keep_frames=args.keep_frames, progress=True))
+        t2 = time.perf_counter()
+        stage("the analytic noise image")
+        predicted = jax.device_get(scene.predict())
+        t3 = time.perf_counter()
+        stage(f"writing {args.out}")
+        arrays = frameio.frame_arrays(frame, predicted)
+        source = str(args.config) if args.config else "built-in defaults"
+        lines = [f"tofjax {tj.__version__}; configuration: {source}; scene {args.scene}; {rows} x {cols} pixels, "
+                 f"{settings.subpixel_samples}^2 rays per pixel, {returns.path_m.shape[-1]} returns per pixel.",
+                 f"{args.frames} Monte Carlo frames (seed {args.seed}); fixed pattern: "
+                 f"{'drawn from frame.seed = ' + str(settings.seed) if args.fixed_pattern else 'off (the mean pixel)'}.",
+                 f"Timing: scene {t1 - t0:.2f} s, frames {t2 - t1:.2f} s, analytic noise image {t3 - t2:.2f} s "
+                 "(compilation included)."]
+        with output_dir(args.out, "tofjax render", args) as folder:
+            written = frameio.write_frame(folder.staging, arrays, f"tofjax render: {name}", lines)
     numbers = frameio.headlines(arrays)
     print(f"{rows} x {cols} pixels, {args.frames} frames in {t2 - t1:.2f} s; good pixels "
-          f"{100 * numbers['good_fraction']:.1f} %; median depth noise {numbers['median_depth_std_mm']:.3g} mm "
-          f"(analytic {numbers.get('median_predicted_std_mm', float('nan')):.3g} mm); median |error| "
-          f"{numbers['median_abs_error_mm']:.3g} mm; {len(cloud)} points")
-    print(f"wrote frame.npz, {len(pngs)} PNGs, points.ply and {report.name} to {args.out}")
+          f"{100 * numbers['good_fraction']:.1f} %; median depth noise {numbers['median_depth_std_mm']:.3g} mm, "
+          f"analytic / Monte Carlo per pixel {numbers.get('median_noise_ratio', float('nan')):.3f} (median); "
+          f"median |error| {numbers['median_abs_error_mm']:.3g} mm; {written['points']} points")
+    print(f"wrote frame.npz, {len(written['pngs'])} PNGs, points.ply and report.html to {args.out}")
     return 0

@@ -23,6 +23,7 @@ from . import plots
 from ._estimate import cw_depth_noise, pulsed_depth_noise
 from ._analytic import predict
 from ._sweep import Sweep
+from .outputs import write_bytes, write_text
 
 _UNITS = {"distance": "m", "illuminance": "lx", "integration_time": "s"}
 
@@ -106,7 +107,7 @@ def write_report(directory, config, result, elapsed_s: float, csv_path, multifre
     if multifrequency is not None:
         figures.append(("multifrequency", "§2.2, Fig 5.9", plots.to_png(plots.multifrequency_distance(multifrequency))))
     for name, _, data in figures:
-        (directory / f"{name}.png").write_bytes(data)
+        write_bytes(directory / f"{name}.png", data)
 
     h = headlines(params, result)
     sweep_unit = _UNITS[result.sweep_variable]
@@ -148,6 +149,4 @@ img{{max-width:520px}}pre{{background:#f6f6f6;padding:8px;font-size:12px}}</styl
 <h2>Configuration</h2><pre>{config_html}</pre>
 </body></html>
 """
-    out = directory / "report.html"
-    out.write_text(text, encoding="utf-8")
-    return out
+    return write_text(directory / "report.html", text)

@@ -349,7 +349,9 @@ def utc_now() -> str:
 
 class SweepWriter:
     """Write a sweep file row by row; every row is flushed and fsynced as it is written, so an
-    interrupted run leaves a valid file holding every completed row.
+    interrupted run leaves a valid file holding every completed row (what ``tofjax record`` needs).
+    The file is created whole, header included, under a temporary name and renamed into place
+    (:mod:`tofjax.outputs`), so it never exists without its header.
 
     **Arguments:**
     - ``path``: the file to create.
@@ -358,10 +360,16 @@ class SweepWriter:
     - ``sync``: fsync after every row (default); ``False`` syncs once, on close.
     - ``append``: continue an existing file (same columns) instead of creating it; its metadata
       stays as it is.
+    - ``replace``: an existing file at ``path`` may be replaced (default); ``False`` refuses one
+      that appears while the header is written (:class:`tofjax.outputs.OutputError`).
+    - ``replace_measurement``: a measurement file may be replaced too (otherwise refused:
+      :class:`tofjax.outputs.OutputError`).
     """
 
     def __init__(self, path: str | os.PathLike, metadata: Mapping[str, object], columns: Iterable[str],
-                 *, sync: bool = True, append: bool = False):
+                 *, sync: bool = True, append: bool = False, replace: bool = True, replace_measurement: bool = False):
+        from .outputs import atomic_path
+
         self.path = Path(path)
         self.sync = sync
         self.columns = list(columns)
@@ -383,10 +391,11 @@ class SweepWriter:
             if list(existing.columns) != self.columns:
                 raise SweepFileError(self.path, None, None, f"cannot append: the file's columns {list(existing.columns)}"
                                                             f" differ from {self.columns}")
-            self._file: IO[str] | None = open(self.path, "a", encoding="utf-8", newline="\n")
-            return
-        self._file = open(self.path, "w", encoding="utf-8", newline="\n")
-        self._write("".join(f"# {k}: {v}\n" for k, v in meta.items()) + ",".join(self.columns) + "\n")
+        else:
+            with atomic_path(self.path, replace=replace, replace_measurement=replace_measurement) as tmp:
+                tmp.write_text("".join(f"# {k}: {v}\n" for k, v in meta.items()) + ",".join(self.columns) + "\n",
+                               encoding="utf-8", newline="\n")
+        self._file: IO[str] | None = open(self.path, "a", encoding="utf-8", newline="\n")
 
     def _write(self, text: str) -> None:
         assert self._file is not None, "SweepWriter is closed"
@@ -401,6 +410,18 @@ class SweepWriter:
         if unknown:
             raise ValueError(f"unknown column(s) {sorted(unknown)} for sweep file {self.path}")
         self._write(",".join(_format_cell(row.get(c, math.nan)) for c in self.columns) + "\n")
+
+    def write_rows(self, columns: Mapping[str, np.ndarray], n: int, block: int = 4096) -> None:
+        """Append ``n`` rows from column arrays (rows as :meth:`write_row` formats them), ``block``
+        rows per write, so that the text of a million rows is never held at once."""
+        unknown = set(columns) - set(self.columns)
+        if unknown:
+            raise ValueError(f"unknown column(s) {sorted(unknown)} for sweep file {self.path}")
+        empty = np.full(n, math.nan)
+        arrays = [np.asarray(columns.get(c, empty), dtype=float) for c in self.columns]
+        for start in range(0, n, block):
+            cells = [[_format_cell(x) for x in a[start:start + block].tolist()] for a in arrays]
+            self._write("".join(",".join(row) + "\n" for row in zip(*cells, strict=True)))
 
     def close(self) -> None:
         if self._file is not None:
@@ -425,15 +446,24 @@ def needed_format(metadata: Mapping[str, str], columns: Iterable[str]) -> str:
     return FORMAT_V1
 
 
-def write_sweep(path: str | os.PathLike, metadata: Mapping[str, object], columns: Mapping[str, Iterable[float]]) -> None:
-    """Write a whole sweep file from column arrays of equal length."""
+def write_sweep(path: str | os.PathLike, metadata: Mapping[str, object], columns: Mapping[str, Iterable[float]], *,
+                replace: bool = True, replace_measurement: bool = False) -> Path:
+    """Write a whole sweep file from column arrays of equal length, under a temporary name renamed
+    into place when complete (:mod:`tofjax.outputs`: a killed run leaves the previous file or the
+    new one, never a shorter file). ``replace``: an existing file may be replaced (default; a
+    command passes its ``--overwrite``); ``replace_measurement``: a measurement file too (otherwise
+    :class:`tofjax.outputs.OutputError`). Returns ``path``."""
+    from .outputs import atomic_path
+
     arrays = {name: np.asarray(values, dtype=float).reshape(-1) for name, values in columns.items()}
     lengths = {len(a) for a in arrays.values()}
     if len(lengths) != 1:
         raise ValueError(f"columns have different lengths: { {k: len(a) for k, a in arrays.items()} }")
-    with SweepWriter(path, metadata, arrays, sync=False) as writer:
-        for i in range(lengths.pop()):
-            writer.write_row({name: a[i] for name, a in arrays.items()})
+    n = lengths.pop()
+    with atomic_path(path, replace=replace, replace_measurement=replace_measurement) as tmp:
+        with SweepWriter(tmp, metadata, arrays, sync=False) as writer:
+            writer.write_rows(arrays, n)
+    return Path(path)
 
 
 #: Columns a simulation writes beyond the required ones (the noise breakdown and flags): these, then

@@ -1,0 +1,260 @@
+"""Outputs are never lost, overwritten by surprise or half-written (tofjax.outputs, README "Outputs"):
+every command refuses an existing output unless told, a measurement is replaced only by name, a run
+killed at any moment leaves the previous output or the complete new one, and Ctrl-C is one line and
+exit status 130."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tofjax import outputs
+from tofjax import sweepfile as sf
+from tofjax.cli import main
+
+# A 32 x 24 camera: every command's run is short, its outputs complete.
+SMALL_CAMERA = "[camera]\noptical_area_m = [0.00056, 0.00042]\n"
+RECORD = ["record", "--sweep", "distance", "--from", "1", "--to", "2", "--samples", "2", "--frames", "4",
+          "--roi", "2,2", "--quiet"]
+META = {"sweep": "distance", "source": "measurement", "modulation_frequency_hz": "80320000.0", "n_phases": "4"}
+
+
+def _run(args, capsys):
+    code = main([str(a) for a in args])
+    return code, capsys.readouterr()
+
+
+def _error(captured) -> str:
+    err = captured.err.strip()
+    assert "Traceback" not in err and len(err.splitlines()) == 1, err
+    assert err.startswith("tofjax: error: "), err
+    return err
+
+
+def _measurement(path: Path, rows: int = 3) -> bytes:
+    cols = {c: np.full(rows, 1.0) for c in sf.REQUIRED_COLUMNS}
+    cols["valid_fraction"] = np.ones(rows)
+    sf.write_sweep(path, META, cols)
+    return path.read_bytes()
+
+
+# -- refusals ---------------------------------------------------------------------------------------
+def test_a_recording_is_never_replaced_by_a_second_recording_or_a_simulation(tmp_path, capsys):
+    out = tmp_path / "ow.csv"
+    assert _run([*RECORD, "--out", out], capsys)[0] == 0
+    data = sf.read_sweep(out)
+    assert data.n_rows == 2
+    # The virtual camera's file says source: simulation; a real camera's says measurement.
+    text = out.read_text().replace("# source: simulation", "# source: measurement")
+    out.write_text(text)
+    before = out.read_bytes()
+    code, captured = _run([*RECORD, "--out", out], capsys)
+    line = _error(captured)
+    assert code == 2 and f"{out} holds 2 measured points (source: measurement, created 20" in line
+    assert "use --resume to continue it" in line and "--force-replace-measurement" in line
+    for extra in ([], ["--overwrite"]):  # a simulation never replaces it, --overwrite or not
+        code, captured = _run(["simulate", "--sweep", "distance", "--samples", "3", "--iterations", "20", "--out", out,
+                               *extra], capsys)
+        assert code == 2 and "a measurement is replaced only with --force-replace-measurement" in _error(captured)
+    assert _run([*RECORD, "--out", out, "--overwrite"], capsys)[0] == 2
+    assert out.read_bytes() == before
+    # Named explicitly, it is replaced.
+    assert _run(["simulate", "--sweep", "distance", "--samples", "3", "--iterations", "20", "--out", out, "--overwrite",
+                 "--force-replace-measurement", "--quiet"], capsys)[0] == 0
+    assert sf.read_sweep(out).metadata["source"] == "simulation"
+
+
+def test_every_writing_command_refuses_an_existing_output_before_any_work(tmp_path, capsys):
+    sim = tmp_path / "s.csv"
+    assert _run(["simulate", "--sweep", "distance", "--samples", "3", "--iterations", "20", "--out", sim, "--quiet"],
+                capsys)[0] == 0
+    before = sim.read_bytes()
+    code, captured = _run(["simulate", "--sweep", "distance", "--samples", "3", "--out", sim], capsys)
+    assert code == 2 and "holds 3 simulated points (source: simulation" in _error(captured)
+    assert "use --overwrite to replace it" in _error(captured) and sim.read_bytes() == before
+    toml = tmp_path / "camera.toml"
+    toml.write_text("[pixel]\nsbi = false\n")
+    code, captured = _run(["config", "--out", toml], capsys)
+    assert code == 2 and f"--out {toml} exists (" in _error(captured) and toml.read_text() == "[pixel]\nsbi = false\n"
+    assert _run(["config", "--out", toml, "--overwrite"], capsys)[0] == 0 and "[scene]" in toml.read_text()
+    folder = tmp_path / "done"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("mine")
+    for args in (["render", "--scene", "wall", "--out", folder],
+                 ["compare", sim, "--out", folder],
+                 ["calibrate", sim, "--fit", "pixel.demodulation_contrast", "--out", folder],
+                 ["simulate", "--sweep", "distance", "--report", folder]):
+        code, captured = _run(args, capsys)
+        assert code == 2 and f"--{'report' if args[0] == 'simulate' else 'out'} {folder} holds 1 file;" in _error(captured)
+        # --overwrite replaces only a directory tofjax wrote: notes.txt could be the user's data.
+        code, captured = _run([*args, "--overwrite"], capsys)
+        assert code == 2 and "holds files tofjax did not write (notes.txt)" in _error(captured)
+    assert sorted(p.name for p in folder.iterdir()) == ["notes.txt"]
+    # A backend file (the posterior chain) is continued with --resume, never replaced by surprise.
+    chain = tmp_path / "chain.h5"
+    chain.write_bytes(b"\x89HDF")
+    code, captured = _run(["calibrate", sim, "--fit", "pixel.demodulation_contrast", "--mcmc", "--backend", chain,
+                           "--out", tmp_path / "cal"], capsys)
+    assert code == 2 and "use --resume to continue or --overwrite to replace" in _error(captured)
+    code, captured = _run(["calibrate", sim, "--fit", "pixel.demodulation_contrast", "--mcmc", "--backend",
+                           tmp_path / "cal" / "chain.h5", "--out", tmp_path / "cal"], capsys)
+    assert code == 2 and "lies inside --out" in _error(captured)
+
+
+def test_a_render_folder_is_replaced_as_a_whole(tmp_path, capsys):
+    config = tmp_path / "small.toml"
+    config.write_text(SMALL_CAMERA)
+    out = tmp_path / "render"
+    common = ["render", "--scene", "wall", "--config", config, "--frames", "4", "--quiet", "--out", out]
+    assert _run([*common, "--keep-frames", "1"], capsys)[0] == 0
+    first = {p.name for p in out.iterdir()}
+    assert "frame_radial_m.png" in first and outputs.MARKER in first
+    marker = json.loads((out / outputs.MARKER).read_text())
+    assert marker["command"] == "tofjax render" and set(marker["files"]) == first - {outputs.MARKER}
+    assert _run(common, capsys)[0] == 2
+    assert _run([*common, "--keep-frames", "0", "--overwrite"], capsys)[0] == 0
+    # The earlier run's kept-frame map is gone with it: nothing of two runs side by side.
+    assert {p.name for p in out.iterdir()} == first - {"frame_radial_m.png"}
+    assert not [p for p in tmp_path.iterdir() if ".partial-" in p.name]
+
+
+# -- atomic files -----------------------------------------------------------------------------------
+def test_a_failed_write_leaves_the_previous_file_and_no_partial_file(tmp_path):
+    path = tmp_path / "sweep.csv"
+    path.write_text("previous")
+    with pytest.raises(RuntimeError), outputs.atomic_path(path) as tmp:
+        tmp.write_text("half")
+        raise RuntimeError("killed")
+    assert path.read_text() == "previous" and sorted(p.name for p in tmp_path.iterdir()) == ["sweep.csv"]
+
+
+def test_a_file_that_appears_meanwhile_is_kept_and_this_output_beside_it(tmp_path):
+    """Two runs writing one name: the second to finish neither replaces nor mixes with the first."""
+    path = tmp_path / "out.csv"
+    with pytest.raises(outputs.OutputError, match="appeared while this run was writing it") as err:
+        with outputs.atomic_path(path, replace=False) as tmp:
+            tmp.write_text("second")
+            path.write_text("first")  # the other run finishes first
+    assert path.read_text() == "first"
+    kept = [p for p in tmp_path.iterdir() if p.name.startswith("out-")]
+    assert len(kept) == 1 and kept[0].read_text() == "second" and str(kept[0]) in str(err.value)
+
+
+def test_the_api_writers_never_replace_a_measurement(tmp_path):
+    path = tmp_path / "lts.csv"
+    before = _measurement(path)
+    cols = {c: np.ones(2) for c in sf.REQUIRED_COLUMNS}
+    with pytest.raises(outputs.OutputError, match="holds 3 measured points"):
+        sf.write_sweep(path, {**META, "source": "simulation"}, cols)
+    with pytest.raises(outputs.OutputError):
+        sf.SweepWriter(path, META, sf.REQUIRED_COLUMNS)
+    assert path.read_bytes() == before
+    sf.write_sweep(path, {**META, "source": "simulation"}, cols, replace_measurement=True)
+    assert sf.read_sweep(path).n_rows == 2
+
+
+def test_stale_partials_of_killed_runs_are_removed_and_live_ones_kept(tmp_path):
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    stale = tmp_path / f".out.csv.partial-{dead.pid}-abc123"
+    live = tmp_path / f".out.csv.partial-{os.getpid()}-def456"
+    aside = tmp_path / f".out.csv.replaced-{dead.pid}-aaa111"
+    for p in (stale, live, aside):
+        p.write_text("x")
+    outputs.write_text(tmp_path / "out.csv", "new")
+    assert not stale.exists() and live.exists() and aside.exists()
+
+
+# -- killed and interrupted runs --------------------------------------------------------------------
+def _tofjax(*args, stderr=subprocess.DEVNULL) -> subprocess.Popen:
+    env = {**os.environ, "JAX_PLATFORMS": "cpu"}
+    return subprocess.Popen([sys.executable, "-m", "tofjax.cli", *map(str, args)], env=env, stdout=subprocess.DEVNULL,
+                            stderr=stderr, text=True)
+
+
+def _ok(*args) -> None:
+    proc = _tofjax(*args, stderr=subprocess.PIPE)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+
+
+def _wait_for(predicate, proc, timeout=120.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+
+
+def _whole(out: Path) -> dict[str, bytes]:
+    """An output folder is whole: its marker lists exactly its files, and they read."""
+    files = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert set(json.loads(files[outputs.MARKER])["files"]) == set(files) - {outputs.MARKER}
+    for p in out.iterdir():
+        if p.suffix == ".html":
+            assert p.read_text().rstrip().endswith("</html>")
+        if p.suffix == ".npz":
+            with np.load(p) as data:
+                assert data["radial_m"].shape == (24, 32)
+    return files
+
+
+@pytest.mark.parametrize("command", ["render", "calibrate"])
+def test_sigkill_at_any_moment_leaves_the_previous_output_or_the_complete_new_one(tmp_path, command):
+    config = tmp_path / "small.toml"
+    config.write_text(SMALL_CAMERA)
+    out = tmp_path / "out"
+    if command == "render":
+        args = ["render", "--scene", "step_edge", "--config", config, "--frames", "200", "--quiet", "--out", out]
+        other = ["--seed", "1"]  # every file of the killed runs differs from the first run's
+    else:
+        sweep = tmp_path / "s.csv"
+        _ok("simulate", "--sweep", "distance", "--from", "0.5", "--to", "3", "--samples", "6", "--iterations", "300",
+            "--quiet", "--out", sweep)
+        args = ["calibrate", sweep, "--fit", "pixel.demodulation_contrast", "--quiet", "--out", out]
+        other = ["--initial", "pixel.demodulation_contrast=0.3"]
+    _ok(*args)
+    previous = _whole(out)
+    rng = np.random.default_rng(7)
+    staging = lambda: any(".partial-" in p.name for p in tmp_path.rglob("*"))  # noqa: E731
+    # Killed while the outputs are being written (the staging folder exists), then at random moments.
+    for when in ("writing", rng.uniform(0.5, 4.0)):
+        proc = _tofjax(*args, *other, "--overwrite")
+        if when == "writing":
+            _wait_for(staging, proc)
+            time.sleep(rng.uniform(0.1, 0.6))
+        else:
+            time.sleep(when)
+        proc.send_signal(signal.SIGKILL)
+        proc.communicate()
+        now = _whole(out)
+        assert set(now) == set(previous)
+        if now[outputs.MARKER] == previous[outputs.MARKER]:  # the previous output, to the byte, or a new whole one
+            assert now == previous
+
+
+def test_ctrl_c_is_one_line_and_exit_status_130(tmp_path):
+    # simulate: long enough never to end by itself; interrupted while it computes.
+    proc = _tofjax("simulate", "--sweep", "distance", "--samples", "200", "--iterations", "10000000", "--quiet",
+                   "--out", tmp_path / "s.csv", stderr=subprocess.PIPE)
+    time.sleep(4.0)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert err.strip() == "tofjax: interrupted before anything was written (no output exists yet)", err
+    assert not (tmp_path / "s.csv").exists()
+    # record: interrupted after its first points; every completed point stays in the file.
+    out = tmp_path / "r.csv"
+    proc = _tofjax("record", "--sweep", "distance", "--from", "0.6", "--to", "2.4", "--samples", "8", "--frames", "40",
+                   "--roi", "2,2", "--settle", "0.3", "--quiet", "--out", out, stderr=subprocess.PIPE)
+    _wait_for(lambda: out.exists() and sf.read_sweep(out, allow_empty=True).n_rows >= 2, proc)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    rows = sf.read_sweep(out).n_rows
+    assert proc.returncode == 130, err
+    assert err.strip() == (f"tofjax: interrupted after {rows} of 8 points; every completed point is in {out}; "
+                           "continue with --resume"), err
