@@ -20,6 +20,8 @@ import pytest
 import tofjax as tj
 from tofjax import frameio, scenes
 from tofjax.cli import main
+from tofjax._flags import (FLAG_LOW_AMPLITUDE, FLAG_LOW_SIGNAL, FLAG_MIXED, FLAG_NO_RETURN, FLAG_OUTSIDE_ILLUMINATION,
+                           FLAG_SATURATED, FLAG_WRAPPED)
 from tofjax._frame import frame_charges, _frame_chain
 from tofjax._pattern import mean_pattern
 
@@ -548,3 +550,63 @@ def test_sharded_over_two_cpu_devices_equals_unsharded(tmp_path):
     proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "ok (3, 21, 31)" in proc.stdout
+
+
+def _flags(params, settings, geometry, **kwargs):
+    frame = tj.predict_frame(params, settings, tj.scene_returns(params, settings, geometry, **kwargs))
+    return frame, np.asarray(frame.flags)
+
+
+def test_every_flag_on_a_scene_built_to_trigger_it(params, one_ray):
+    """Each bit of tj.FLAGS where the closed form says, and nowhere else; good pixels are unflagged."""
+    du = float(params.unambiguity_range_m)
+    # Wrapped: a wall at 1.7 m, whose off-axis pixels lie beyond d_u = 1.866 m (radial = z / cos).
+    frame, flags = _flags(params, one_ray, scenes.wall(1.7))
+    radial = np.asarray(frame.radial_true_m)
+    assert radial.min() < du < radial.max()
+    np.testing.assert_array_equal(flags, np.where(radial >= du, FLAG_WRAPPED, 0))
+    # Mixed: a step whose edge (at the board's 1 m) cuts the pixel column right of the axis, a fifth of
+    # a pixel right of its centre (3 x 3 rays): that column only.
+    three = tj.FrameSettings(subpixel_samples=3)
+    d = np.asarray(tj.frame_rays(params, one_ray).centre)[CENTRE[0]]
+    x = d[:, 0] / d[:, 2]
+    x_edge = float(x[CENTRE[1] + 1] + 0.2 * (x[CENTRE[1] + 2] - x[CENTRE[1] + 1]))
+    frame, flags = _flags(params, three, scenes.step_edge(1.0, 1.4, x_edge))
+    columns = np.unique(np.nonzero(flags & 16)[1])
+    assert columns.tolist() == [CENTRE[1] + 1] and np.all(flags[:, columns[0]] == FLAG_MIXED)
+    assert np.all(np.delete(flags, columns, 1) == 0)
+    # The column is the one whose returns come from both surfaces.
+    paths = np.asarray(tj.scene_returns(params, three, scenes.step_edge(1.0, 1.4, x_edge)).path_m)
+    both = np.ptp(paths, axis=-1) > 0.5
+    np.testing.assert_array_equal(np.unique(np.nonzero(both)[1]), columns)
+    # No return: a wall of reflectivity 0 (no light comes back), and a sphere's surroundings (no surface).
+    _, flags = _flags(params, one_ray, scenes.wall(1.0, 0.0))
+    assert np.all(flags & FLAG_NO_RETURN) and np.all(flags & FLAG_LOW_SIGNAL)  # and no signal: low signal too
+    frame, flags = _flags(params, one_ray, scenes.sphere(1.2, 0.1, 0.9))
+    np.testing.assert_array_equal((flags & FLAG_NO_RETURN) != 0, ~np.isfinite(np.asarray(frame.radial_true_m)))
+    # Outside the illumination: an illumination cone of 20 degrees (diagonal) in a camera of 75.
+    narrow = eqx.tree_at(lambda p: p.illumination.fov_deg, params, jnp.asarray(20.0))
+    frame, flags = _flags(narrow, one_ray, scenes.wall(1.0))
+    angle = np.degrees(np.arccos(np.asarray(frame.direction)[..., 2]))
+    np.testing.assert_array_equal((flags & FLAG_OUTSIDE_ILLUMINATION) != 0, angle > 10.0)
+    assert np.all(flags[angle > 10.0] & FLAG_NO_RETURN)  # no light comes back from there either
+    # Saturated: a wall at 5 cm; low signal and low amplitude from the expected (analytic) values.
+    _, flags = _flags(params, one_ray, scenes.wall(0.05))
+    assert np.all(flags & FLAG_SATURATED)
+    frame, flags = _flags(params, one_ray, scenes.wall(1.5, 0.1))  # a dark wall: the noisy corners flagged
+    phase = np.asarray(frame.quality.expected_phase_std_rad)
+    np.testing.assert_array_equal((flags & FLAG_LOW_SIGNAL) != 0, phase > 0.3)
+    assert 0 < np.sum(phase > 0.3) < phase.size
+    amplitude = np.asarray(frame.result.amplitude_mean_lsb)
+    threshold = float(np.median(amplitude))
+    picky = dataclasses.replace(one_ray, min_amplitude_lsb=jnp.asarray(threshold))
+    _, flags = _flags(params, picky, scenes.wall(1.0))
+    np.testing.assert_array_equal((flags & FLAG_LOW_AMPLITUDE) != 0, np.asarray(tj.predict_frame(
+        params, picky, tj.scene_returns(params, picky, scenes.wall(1.0))).result.amplitude_mean_lsb) < threshold)
+
+
+def test_monte_carlo_low_signal_comes_from_the_expected_noise_not_two_frames(params, one_ray):
+    """Two frames of a black wall agree by chance in some pixels: they are flagged all the same."""
+    returns = tj.scene_returns(params, one_ray, scenes.wall(1.0, 0.0))
+    frame = tj.render_frame(params, one_ray, returns, jax.random.key(3), 2)
+    assert np.all(np.asarray(frame.flags) & FLAG_LOW_SIGNAL) and np.all(np.asarray(frame.flags) & FLAG_NO_RETURN)

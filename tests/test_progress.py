@@ -2,6 +2,7 @@
 compilation), the least squares' bound is said as a bound, and lines come at their interval."""
 
 import io
+import time
 
 from tofjax.progress import Progress
 
@@ -56,3 +57,60 @@ def test_quiet_at_first_then_a_line_per_interval():
     lines = out.getvalue().splitlines()
     assert [line.split(":")[0] for line in lines] == ["recording", "recording"]
     assert lines[0].startswith("recording: 4 % (4/100 points), 11 s elapsed")
+
+
+def test_stages_are_quiet_in_a_short_run_and_each_announced_in_a_long_one():
+    from tofjax.progress import Stages
+
+    clock = Clock()
+    out = io.StringIO()
+    with Stages("render", stream=out, quiet_for_s=2.0, clock=clock) as stage:
+        stage("casting rays")
+        clock.t = 1.0
+        stage("frames")
+    assert out.getvalue() == ""  # a second's run says nothing
+    with Stages("render", stream=out, quiet_for_s=2.0, clock=clock) as stage:
+        clock.t = 4.0
+        stage("frames")
+        clock.t = 95.0
+        stage("writing")
+    assert out.getvalue().splitlines() == ["render: frames ... (3 s elapsed)", "render: writing ... (1.6 min elapsed)"]
+
+
+def test_a_long_compilation_is_announced_once():
+    import jax
+    import jax.numpy as jnp
+
+    from tofjax.progress import compiling
+
+    out = io.StringIO()
+    with compiling(stream=out, notice_s=0.0) as notice:
+        jax.jit(lambda x: jnp.sin(x) * 1.2345678 + jnp.cos(x) ** 3)(jnp.arange(7.0)).block_until_ready()
+        for _ in range(40):  # the thread looks every 0.1 s
+            if notice.announced:
+                break
+            time.sleep(0.05)
+    assert notice.spent_s() > 0 and out.getvalue() == "compiling (first run; cached for next time) ...\n"
+    quiet = io.StringIO()
+    with compiling(stream=quiet, notice_s=60.0):
+        jax.jit(lambda x: x * 7.654321)(1.0)
+    assert quiet.getvalue() == ""
+
+
+def test_render_reports_every_stage_and_its_frames_in_a_log(tmp_path, capsys, monkeypatch):
+    """Not a terminal (capsys): one line per stage and per progress interval, counts as integers."""
+    from tofjax import progress
+    from tofjax.cli import main
+
+    monkeypatch.setattr(progress, "QUIET_FOR_S", 0.0)
+    monkeypatch.setattr(progress, "EVERY_S", 0.0)
+    config = tmp_path / "small.toml"
+    config.write_text("[camera]\noptical_area_m = [0.00056, 0.00042]\n")
+    out = tmp_path / "corner"
+    assert main(["render", "--scene", "corner", "--config", str(config), "--frames", "3",
+                 "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    stages = [line.split(" ... ")[0] for line in err.splitlines() if " ... (" in line]
+    assert stages == ["render: casting 3^2 rays per pixel of 24 x 32 pixels and the two-bounce light",
+                      "render: 3 Monte Carlo frames", "render: the analytic noise image", f"render: writing {out}"]
+    assert "render: 3 frames: 100 % (1/1 chunks)" in err

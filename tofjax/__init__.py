@@ -48,7 +48,7 @@ _EXPORTS = {
     "PRESETS": "_presets", "Preset": "_presets", "preset_config": "_presets", "preset_text": "_presets",
     "FrameSettings": "_framegeometry", "frame_shape": "_framegeometry", "frame_rays": "_framegeometry",
     "scene_returns": "_framegeometry", "depth_returns": "_framegeometry", "pixel_etendue_m2_sr": "_framegeometry",
-    "FrameResult": "_frame", "FLAGS": "_frame", "predict_frame": "_frame", "noise_image": "_frame",
+    "FrameResult": "_frame", "FLAGS": "_flags", "FrameQuality": "_frame", "predict_frame": "_frame", "noise_image": "_frame",
     "render_frame": "_frame", "sample_frame": "_frame", "prepare_frame": "_frame", "PreparedFrame": "_frame",
     "NoisyFrames": "_frame", "sharded_map": "_frame", "prepare_camera": "_frame", "PreparedCamera": "_frame",
     "FrameExposure": "_frame",
@@ -91,8 +91,9 @@ def explorer(config=None):
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from . import frameio, plots, progress, report, scenes, schema, stats, sweepfile  # noqa: F401
+    from ._flags import FLAGS  # noqa: F401
     from ._frame import (  # noqa: F401
-        FLAGS, FrameExposure, FrameResult, NoisyFrames, PreparedCamera, PreparedFrame, noise_image, predict_frame,
+        FrameExposure, FrameQuality, FrameResult, NoisyFrames, PreparedCamera, PreparedFrame, noise_image, predict_frame,
         prepare_camera, prepare_frame, render_frame, sample_frame, sharded_map)
     from ._framegeometry import (  # noqa: F401
         FrameSettings, depth_returns, frame_rays, frame_shape, pixel_etendue_m2_sr, scene_returns)

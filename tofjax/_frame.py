@@ -33,6 +33,8 @@ from . import _jit
 from ._analytic import analytic, moments
 from ._chain import Chain, build_chain
 from ._correlation import UNROLLED_RETURNS
+from ._flags import (FLAG_LOW_AMPLITUDE, FLAG_LOW_SIGNAL, FLAG_MIXED, FLAG_NO_RETURN, FLAG_OUTSIDE_ILLUMINATION,
+                     FLAG_SATURATED, FLAG_WRAPPED)
 from ._framegeometry import FrameSettings, frame_shape, pixel_etendue_m2_sr
 from ._frames import PointCharges, draw_frames, drive_blocks, equal_parts
 from ._mixer import TapCharges, scene_photon_irradiance
@@ -44,23 +46,64 @@ from ._pattern import PixelPattern, mean_pattern
 from ._random import key_words
 from ._reduce import sum_by_slices
 from ._result import Result
-from ._returns import Returns
+from ._returns import Returns, intensity_per_w
 from ._scene import pixel_directions, pixel_field
 from ._smooth import Smooth
 from ._sweep import Sweep
 from ._waveforms import waveform_mean
 
-#: Bits of :attr:`FrameResult.flags`.
-FLAG_SATURATED = 1
-FLAG_LOW_SIGNAL = 2
-FLAG_NO_RETURN = 4
-FLAGS = {
-    FLAG_SATURATED: "saturated: the pixel or the ADC saturated (analytic: expected; Monte Carlo: in any frame)",
-    FLAG_LOW_SIGNAL: "low signal: the phase noise exceeds 0.3 rad (a camera's amplitude threshold would reject it)",
-    FLAG_NO_RETURN: "no return: the pixel's centre ray meets no surface of the scene (truth, not a measurement)",
-}
-#: Phase standard deviation above which a pixel is flagged as low signal, rad.
-LOW_SIGNAL_PHASE_STD_RAD = 0.3
+class FrameQuality(eqx.Module):
+    """What a frame's flags need besides its statistics, per pixel ``(rows, cols)``: the bits that
+    come from the scene and the camera's geometry (:func:`scene_flags`), the expected (analytic)
+    phase noise and amplitude, and the configured thresholds (``[frame]``)."""
+
+    scene_flags: Array
+    expected_phase_std_rad: Float[Array, "rows cols"]
+    expected_amplitude_lsb: Float[Array, "rows cols"]
+    max_phase_noise_rad: Float[Array, ""]
+    min_amplitude_lsb: Float[Array, ""]
+
+
+def scene_flags(params: Params, settings: FrameSettings, returns: Returns, direction: Array) -> Array:
+    """The flags of :data:`FLAGS` that the scene and the geometry decide: no return, wrapped,
+    mixed, outside the illumination (int32, ``(rows, cols)``)."""
+    du = params.unambiguity_range_m
+    radiance = returns.radiance_per_w
+    total = jnp.sum(radiance, axis=-1)
+    radial = returns.radial_m
+    surface = jnp.isfinite(radial)
+    none = ~(total > 0.0) | ~surface
+    wrapped = surface & (radial >= du)
+    # The spread of the distances the pixel's light comes from: the radiance-weighted standard
+    # deviation of its returns' one-way distances (two surfaces sharing w and 1 - w of the light
+    # at a distance D apart: D sqrt(w (1 - w))).
+    weight = radiance / jnp.where(total > 0.0, total, 1.0)[..., None]
+    one_way = 0.5 * returns.path_m
+    mean = jnp.sum(weight * one_way, axis=-1)
+    spread = jnp.sqrt(jnp.maximum(jnp.sum(weight * (one_way - mean[..., None]) ** 2, axis=-1), 0.0))
+    mixed = ~none & (spread > settings.mixed_spread_fraction * du)
+    # The illumination's intensity towards what the pixel sees (its centre ray's point; its direction
+    # where it meets nothing), from the illumination's position (the baseline).
+    point = jnp.where(surface, radial, 1.0)[..., None] * direction
+    source = jnp.concatenate([jnp.asarray(settings.baseline_m, dtype=float), jnp.zeros(1)])
+    outside = intensity_per_w(params.illumination, settings.illumination_falloff_exponent,
+                              point - jnp.broadcast_to(source, point.shape)) <= 0.0
+    return (_bit(none, FLAG_NO_RETURN) | _bit(wrapped, FLAG_WRAPPED) | _bit(mixed, FLAG_MIXED)
+            | _bit(outside, FLAG_OUTSIDE_ILLUMINATION))
+
+
+def _bit(condition: Array, flag: int) -> Array:
+    """``flag`` where ``condition`` holds, else 0, as int32. Every term of a flags' OR is int32: XLA's
+    CPU compiler (jax 0.10.2) crashes on the OR of an int64 and an int32 array."""
+    return jnp.where(condition, jnp.int32(flag), jnp.int32(0))
+
+
+def _quality(chain: Chain, settings: FrameSettings, returns: Returns, direction: Array, expected: Result
+             ) -> FrameQuality:
+    """A frame's :class:`FrameQuality` from its returns and its analytic result ``expected``."""
+    phase_std = expected.depth_std_m * 2.0 * jnp.pi / expected.unambiguity_range_m
+    return FrameQuality(scene_flags(chain.params, settings, returns, direction), phase_std,
+                        expected.amplitude_mean_lsb, settings.max_phase_noise_rad, settings.min_amplitude_lsb)
 
 
 class FrameExposure(eqx.Module):
@@ -105,6 +148,7 @@ class PreparedCamera(eqx.Module):
 
     **Fields** (``(rows, cols)`` per pixel):
     - ``chain``: the frame's chain (:func:`tofjax.build_chain`, each pixel's own full well);
+    - ``settings``: the ``[frame]`` settings (:class:`tofjax.FrameSettings`);
     - ``pattern``: the camera sample (:class:`tofjax.PixelPattern`);
     - ``active_e_per_radiance``: active electrons per phase image and per unit of a return's
       ``radiance_per_w`` (W m^-2 sr^-1 per W): peak power x the waveform's mean x the pixel's
@@ -120,6 +164,7 @@ class PreparedCamera(eqx.Module):
     """
 
     chain: Chain
+    settings: FrameSettings
     pattern: PixelPattern
     active_e_per_radiance: Float[Array, "rows cols"]
     background_e_per_reflectivity: Float[Array, "rows cols"]
@@ -176,13 +221,19 @@ class PreparedCamera(eqx.Module):
         """A scene's analytic frame (:func:`predict_frame`)."""
         self._check(returns)
         result = _predict_prepared(self.chain, returns.radial_m, self.expose(returns))
-        return FrameResult(result, returns.radial_m, self.direction, self.pattern)
+        quality = _quality_jit(self.chain, self.settings, returns, self.direction, result)
+        return FrameResult(result, returns.radial_m, self.direction, self.pattern, quality)
 
     def prepare(self, returns: Returns) -> PreparedFrame:
-        """A scene exposed once (:func:`prepare_frame`)."""
+        """A scene exposed once (:func:`prepare_frame`), with its flags' expected noise and amplitude
+        (the analytic frame's) and the scene's own flags."""
         self._check(returns)
-        sweep, charges, consts = _charges_and_constants(self.chain, returns.radial_m, self.expose(returns))
-        return PreparedFrame(self.chain, sweep, Prepared(charges, consts), returns.radial_m, self.direction, self.pattern)
+        exposure = self.expose(returns)
+        sweep, charges, consts = _charges_and_constants(self.chain, returns.radial_m, exposure)
+        expected = _predict_prepared(self.chain, sweep, charges)
+        quality = _quality_jit(self.chain, self.settings, returns, self.direction, expected)
+        return PreparedFrame(self.chain, sweep, Prepared(charges, consts), returns.radial_m, self.direction,
+                             self.pattern, quality)
 
     def render(self, returns: Returns, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0,
                progress: bool = False) -> FrameResult:
@@ -221,7 +272,7 @@ def _camera(params: Params, settings: FrameSettings, pattern: PixelPattern | Non
     emitted = ill.peak_power_w * waveform_mean(params.illumination_waveform)
     active = emitted * per_radiance * (t / photon_energy_j(ill.wavelength_m, consts) * qe)
     background = scene_photon_irradiance(params, scene.illuminance_lx) / jnp.pi * per_radiance * t * qe
-    return PreparedCamera(chain, pattern, active, background,
+    return PreparedCamera(chain, settings, pattern, active, background,
                           dark_electrons(pixel, t, consts, pattern.dark_slope_a_v_per_s),
                           dark_electrons(pixel, t, consts, pattern.dark_slope_b_v_per_s),
                           pixel_directions(params.camera, shape))
@@ -255,7 +306,8 @@ class FrameResult(eqx.Module):
     and measured depth, its standard deviation, amplitude, intensity, noise budget, flags; Monte
     Carlo frames, when kept, on the axis after the pixels); ``radial_true_m`` (the centre ray's true
     distance, inf where it meets nothing); ``direction`` (each pixel's unit ray, ``(rows, cols,
-    3)``); ``pattern`` (the camera sample).
+    3)``); ``pattern`` (the camera sample); ``quality`` (what :attr:`flags` needs besides the
+    statistics: :class:`FrameQuality`).
 
     Measured distances are radial (along the pixel's ray, what a ToF pixel measures, wrapped to
     the unambiguity range); ``z_m`` is the Z depth (the distance's projection on the optical axis).
@@ -265,6 +317,7 @@ class FrameResult(eqx.Module):
     radial_true_m: Float[Array, "rows cols"]
     direction: Float[Array, "rows cols 3"]
     pattern: PixelPattern
+    quality: FrameQuality
 
     @property
     def method(self) -> str:
@@ -306,13 +359,14 @@ class FrameResult(eqx.Module):
 
     @property
     def flags(self) -> Array:
-        """Bits of :data:`FLAGS` per pixel (0: a good pixel)."""
-        r = self.result
-        saturated = jnp.where(r.valid_fraction < 1.0, FLAG_SATURATED, 0)
-        phase_std = r.depth_std_m * 2.0 * jnp.pi / r.unambiguity_range_m
-        low = jnp.where(~(phase_std <= LOW_SIGNAL_PHASE_STD_RAD), FLAG_LOW_SIGNAL, 0)
-        none = jnp.where(jnp.isfinite(self.radial_true_m), 0, FLAG_NO_RETURN)
-        return (saturated | low | none).astype(jnp.int32)
+        """Bits of :data:`FLAGS` per pixel (int32; 0: a good pixel). Low signal and low amplitude
+        come from the expected noise and amplitude (:class:`FrameQuality`), not from the frames'
+        own spread, which a few frames do not pin down."""
+        q = self.quality
+        saturated = _bit(self.result.valid_fraction < 1.0, FLAG_SATURATED)
+        low = _bit(~(q.expected_phase_std_rad <= q.max_phase_noise_rad), FLAG_LOW_SIGNAL)
+        dim = _bit(q.expected_amplitude_lsb < q.min_amplitude_lsb, FLAG_LOW_AMPLITUDE)
+        return saturated | low | dim | q.scene_flags
 
     def points_m(self, radial_m: Array | None = None) -> np.ndarray:
         """The point cloud ``(n, 3)`` of the pixels without flags (x right, y up, z along the axis),
@@ -421,6 +475,7 @@ class PreparedFrame(eqx.Module):
     radial_true_m: Float[Array, "rows cols"]
     direction: Float[Array, "rows cols 3"]
     pattern: PixelPattern
+    quality: FrameQuality
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -454,7 +509,7 @@ class PreparedFrame(eqx.Module):
 
     def _wrap(self, result: Result) -> FrameResult:
         # Outside the programs: the geometry and the pattern are passed on, not copied by a program.
-        return FrameResult(result, self.radial_true_m, self.direction, self.pattern)
+        return FrameResult(result, self.radial_true_m, self.direction, self.pattern, self.quality)
 
 
 class NoisyFrames(eqx.Module):
@@ -471,6 +526,7 @@ class NoisyFrames(eqx.Module):
 # in one program: 32 ms), and the exposure's sum over the returns has two (the taps; FrameExposure).
 # Under an outer jit they are traced into one program as usual.
 _prepare_camera = _jit.jit(_camera)
+_quality_jit = _jit.jit(_quality)
 _key_words_jit = _jit.jit(key_words)
 
 

@@ -41,6 +41,9 @@ class FrameSettings(eqx.Module):
     tap_asymmetry_sigma: Float[Array, ""] = _float("frame", "tap_asymmetry_sigma")
     threshold_sigma: Float[Array, ""] = _float("frame", "threshold_sigma")
     seed: int = _static("frame", "seed")
+    max_phase_noise_rad: Float[Array, ""] = _float("frame", "max_phase_noise_rad")
+    min_amplitude_lsb: Float[Array, ""] = _float("frame", "min_amplitude_lsb")
+    mixed_spread_fraction: Float[Array, ""] = _float("frame", "mixed_spread_fraction")
 
     def __check_init__(self):
         _check(self, "frame")

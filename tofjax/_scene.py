@@ -295,6 +295,14 @@ class Surface(eqx.Module):
         return self.centre_t_m
 
 
+def unit_vector(v) -> Float[Array, "3"]:
+    """``v`` over its length, scaled by its largest component first so that no finite non-zero
+    vector under- or overflows (``(1e-200, 1e-200, 0)`` is the unit vector along its diagonal)."""
+    v = _f64(v)
+    scaled = v / jnp.max(jnp.abs(v))
+    return scaled / jnp.sqrt(dot3(scaled, scaled))
+
+
 def surface(geometry: SceneGeometry, rays: Rays, sun_direction=None) -> Surface:
     """Cast every ray of ``rays`` into ``geometry``. ``sun_direction``: a direction the background
     light travels along (e.g. ``(0, -1, 1)``: from above and behind the camera); each surface then
@@ -305,7 +313,7 @@ def surface(geometry: SceneGeometry, rays: Rays, sun_direction=None) -> Surface:
     if sun_direction is None:
         ambient = jnp.ones_like(hit.t)
     else:
-        s = _f64(sun_direction) / jnp.linalg.norm(_f64(sun_direction))
+        s = unit_vector(sun_direction)
         ambient = jnp.maximum(-dot3(hit.normal, s), 0.0)
     return Surface(hit.t, hit.normal, hit.reflectivity, ambient, centre.t, centre.normal, centre.reflectivity)
 

@@ -220,6 +220,17 @@ KEYS: tuple[Key, ...] = (
        "pixel-to-pixel relative sigma of the SBI threshold and full well", 0.0, 0.15),
     _k("frame", "seed", "int", 0, "1",
        "seed of the fixed-pattern draw: the same seed gives the same camera", 0, 2**31 - 1),
+    _k("frame", "max_phase_noise_rad", "float", 0.3, "rad",
+       "confidence threshold: a pixel whose expected (analytic) phase noise exceeds this is flagged low signal",
+       0.0, 3.15, lo_open=True),
+    _k("frame", "min_amplitude_lsb", "float", 0.0, "LSB",
+       "confidence threshold: a pixel whose expected amplitude is below this is flagged low amplitude (0 = off)",
+       0.0, 1e6),
+    _k("frame", "mixed_spread_fraction", "float", 0.01, "1",
+       "a pixel whose light comes from distances spread (light-weighted standard deviation) over more than this "
+       "fraction of the unambiguity range is flagged mixed: it averages several surfaces (a flying pixel) or multipath",
+       0.0, 1.0,
+       lo_open=True),
 )
 
 SECTIONS: tuple[str, ...] = tuple(dict.fromkeys(k.section for k in KEYS))

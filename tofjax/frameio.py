@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._flags import FLAG_KEYS, FLAGS
 from .outputs import atomic_path, write_bytes, write_text
 
 #: Map name -> (title, unit, colour map) of the PNGs.
@@ -22,13 +23,14 @@ MAPS = {
     "amplitude_lsb": ("Amplitude", "LSB", "gray"),
     "intensity_e": ("Intensity (mean electrons per tap)", "e-", "gray"),
     "frame_radial_m": ("One noisy frame: radial distance", "m", "viridis"),
-    "flags": ("Flags (1 saturated, 2 low signal, 4 no return)", "-", "tab10"),
+    "flags": ("Flags (bits: frame.npz flag_names)", "-", "tab10"),
 }
 
 
 def frame_arrays(frame, predicted=None) -> dict[str, np.ndarray]:
     """The frame's images as NumPy arrays (``(rows, cols)``; ``frames_radial_m`` ``(frames, rows,
-    cols)`` when frames were kept), with the analytic ``predicted`` frame's noise image if given."""
+    cols)`` when frames were kept), with the analytic ``predicted`` frame's noise image if given;
+    ``flags`` with its bits described in ``flag_names`` (``"1: saturated: ..."``, :data:`FLAGS`)."""
     r = frame.result
     out = {
         "radial_m": np.asarray(frame.radial_m), "z_m": np.asarray(frame.z_m),
@@ -40,6 +42,7 @@ def frame_arrays(frame, predicted=None) -> dict[str, np.ndarray]:
         "direction": np.asarray(frame.direction), "unambiguity_range_m": np.asarray(r.unambiguity_range_m),
         "prnu_gain": np.asarray(frame.pattern.gain), "phase_offset_rad": np.asarray(frame.pattern.phase_offset_rad),
     }
+    out["flag_names"] = np.array([f"{bit}: {text}" for bit, text in FLAGS.items()])
     if frame.frames_radial_m is not None:
         out["frames_radial_m"] = np.asarray(frame.frames_radial_m)
     if predicted is not None:
@@ -123,7 +126,7 @@ def write_maps(directory, arrays: dict[str, np.ndarray]) -> list[Path]:
     written = []
     for name, image in images.items():
         title, unit, cmap = MAPS[name]
-        limits = (0, 7) if name == "flags" else (None, None)
+        limits = (0, 2 * max(FLAGS) - 1) if name == "flags" else (None, None)
         if name == "error_mm":
             finite = np.abs(image[np.isfinite(image)])
             span = float(np.percentile(finite, 99)) if finite.size else 1.0
@@ -147,8 +150,7 @@ def headlines(arrays: dict[str, np.ndarray]) -> dict[str, float]:
     err = distance_error_m(arrays)[good]
     out = {
         "pixels": float(flags.size), "good_fraction": float(np.mean(good)),
-        "saturated_fraction": float(np.mean((flags & 1) != 0)), "low_signal_fraction": float(np.mean((flags & 2) != 0)),
-        "no_return_fraction": float(np.mean((flags & 4) != 0)),
+        **{f"{FLAG_KEYS[bit]}_fraction": float(np.mean((flags & bit) != 0)) for bit in FLAGS},
         "median_depth_std_mm": float(1e3 * np.nanmedian(arrays["depth_std_m"][good])) if good.any() else float("nan"),
         "median_abs_error_mm": float(1e3 * np.nanmedian(np.abs(err))) if err.size else float("nan"),
     }
@@ -156,7 +158,9 @@ def headlines(arrays: dict[str, np.ndarray]) -> dict[str, float]:
         out["median_predicted_std_mm"] = float(1e3 * np.nanmedian(arrays["predicted_std_m"][good]))
         # The two medians are of different pixel sets' noise distributions, so their quotient is not
         # the agreement: the median of the per-pixel ratio is (the render summary reports it).
-        ratio = arrays["predicted_std_m"][good] / arrays["depth_std_m"][good]
+        measured = arrays["depth_std_m"][good]
+        usable = np.isfinite(measured) & (measured > 0)  # a pixel whose frames all agree has no ratio
+        ratio = arrays["predicted_std_m"][good][usable] / measured[usable]
         out["median_noise_ratio"] = float(np.nanmedian(ratio)) if np.isfinite(ratio).any() else float("nan")
     return out
 

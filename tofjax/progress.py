@@ -65,14 +65,15 @@ class Progress:
     """
 
     def __init__(self, total: float, desc: str, *, unit: str = "step", initial: float = 0, enabled: bool = True,
-                 stream=None, every_s: float = EVERY_S, quiet_for_s: float = QUIET_FOR_S, upper_bound: bool = False,
-                 clock=time.monotonic):
+                 stream=None, every_s: float | None = None, quiet_for_s: float | None = None,
+                 upper_bound: bool = False, clock=time.monotonic):
         self.total, self.desc, self.unit = float(total), desc, unit
         self.done = float(initial)
         self.upper_bound = upper_bound
         self.enabled = enabled and total > 0
         self.stream = sys.stderr if stream is None else stream
-        self.every_s, self.quiet_for_s = every_s, quiet_for_s
+        self.every_s = EVERY_S if every_s is None else every_s
+        self.quiet_for_s = QUIET_FOR_S if quiet_for_s is None else quiet_for_s
         self._clock = clock
         self._start = clock()
         self._first: tuple[float, float] | None = None  # (time, steps done) at the first update
@@ -191,10 +192,10 @@ class compiling:  # noqa: N801 - used as a context manager, like a function
     monitoring events: a persistent-cache miss starts a compilation, the backend's compile duration
     ends one; a thread looks every 0.1 s. ``enabled=False`` (``--quiet``) turns it off."""
 
-    def __init__(self, *, enabled: bool = True, stream=None, notice_s: float = COMPILING_NOTICE_S):
+    def __init__(self, *, enabled: bool = True, stream=None, notice_s: float | None = None):
         self.enabled = enabled
         self.stream = sys.stderr if stream is None else stream
-        self.notice_s = notice_s
+        self.notice_s = COMPILING_NOTICE_S if notice_s is None else notice_s
         self.announced = False
         self._spent = 0.0
         self._since: float | None = None
@@ -256,11 +257,11 @@ class Stages:
     announced when it starts after that, or, if it started before, when the run reaches it (a
     thread waits for that moment). A context manager; calling it starts the next stage."""
 
-    def __init__(self, desc: str, *, enabled: bool = True, stream=None, quiet_for_s: float = QUIET_FOR_S,
+    def __init__(self, desc: str, *, enabled: bool = True, stream=None, quiet_for_s: float | None = None,
                  clock=time.monotonic):
         self.desc, self.enabled = desc, enabled
         self.stream = sys.stderr if stream is None else stream
-        self.quiet_for_s = quiet_for_s
+        self.quiet_for_s = QUIET_FOR_S if quiet_for_s is None else quiet_for_s
         self._clock = clock
         self._start = clock()
         self._current: str | None = None

@@ -209,6 +209,24 @@ def _check_size(name: str, geometry, params, settings, shape) -> int:
     return max(available - need, 0) // 2
 
 
+def _summary(numbers: dict) -> str:
+    """The render summary's numbers, of the good (unflagged) pixels: their share, and the flags that
+    took the others; median noise, the median of the per-pixel ratio of analytic to Monte Carlo
+    noise (the agreement; the ratio of the two medians is not), median |error|."""
+    from ._flags import FLAG_KEYS
+
+    def num(key, fmt):
+        x = numbers.get(key, math.nan)
+        return "-" if not math.isfinite(x) else format(x, fmt)
+
+    flagged = [f"{100 * numbers[f'{name}_fraction']:.1f} % {name.replace('_', ' ')}" for name in FLAG_KEYS.values()
+               if numbers[f"{name}_fraction"] > 0]
+    return (f"good pixels {100 * numbers['good_fraction']:.1f} %" + (f" ({', '.join(flagged)})" if flagged else "")
+            + f"; of those, median depth noise {num('median_depth_std_mm', '.3g')} mm (Monte Carlo), analytic / Monte "
+            f"Carlo {num('median_noise_ratio', '.3f')} (median of the per-pixel ratio), median |error| "
+            f"{num('median_abs_error_mm', '.3g')} mm")
+
+
 def run(args) -> int:
     from .cli import check_output_dir, on_interrupt, output_dir, untouched_note
     from .progress import Progress, Stages, compiling, reporting
@@ -278,9 +296,7 @@ def run(args) -> int:
         with output_dir(args.out, "tofjax render", args) as folder:
             written = frameio.write_frame(folder.staging, arrays, f"tofjax render: {name}", lines)
     numbers = frameio.headlines(arrays)
-    print(f"{rows} x {cols} pixels, {args.frames} frames in {t2 - t1:.2f} s; good pixels "
-          f"{100 * numbers['good_fraction']:.1f} %; median depth noise {numbers['median_depth_std_mm']:.3g} mm, "
-          f"analytic / Monte Carlo per pixel {numbers.get('median_noise_ratio', float('nan')):.3f} (median); "
-          f"median |error| {numbers['median_abs_error_mm']:.3g} mm; {written['points']} points")
+    print(f"{rows} x {cols} pixels, {args.frames} frames in {t2 - t1:.2f} s; " + _summary(numbers)
+          + f"; {written['points']} points")
     print(f"wrote frame.npz, {len(written['pngs'])} PNGs, points.ply and report.html to {args.out}")
     return 0
