@@ -29,6 +29,7 @@ import dataclasses
 import html
 import io
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -204,7 +205,8 @@ def _cell(x) -> str:
 
 
 def table_rows(comparisons: list[FileComparison], label: str = "") -> list[dict[str, str]]:
-    """Every row of every file as a flat record (the CSV and Markdown tables)."""
+    """Every row of every file as a flat record (the CSV and Markdown tables), file by file in order
+    (two files of the same name stay apart: :func:`write_comparison` takes each file's own rows)."""
     out = []
     for c in comparisons:
         r_std, r_amp, r_amp_std = c.ratio("depth_std_m"), c.ratio("amplitude_mean_lsb"), c.ratio("amplitude_std_lsb")
@@ -307,7 +309,7 @@ def _summary_lines(comparisons: list[FileComparison]) -> list[str]:
             s = c.summary(name)
             if s["rows"] == 0:
                 continue
-            lines.append(f"| {Path(c.path).name} | {name} | {s['rows']} | {s['within']} | {s['median_ratio']:.3f} | "
+            lines.append(f"| {_md_text(Path(c.path).name)} | {name} | {s['rows']} | {s['within']} | {s['median_ratio']:.3f} | "
                          f"{s['rms_log_ratio']:.3f} | {flagged} |")
     return lines
 
@@ -326,19 +328,20 @@ def write_comparison(comparisons: list[FileComparison], out: str | Path, *, titl
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
-    records = table_rows(comparisons)
+    per_file = [table_rows([c]) for c in comparisons]  # each file's own rows, whatever its name
+    records = [r for rows in per_file for r in rows]
     csv_path = out / f"{stem}.csv"
     with atomic_path(csv_path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=list(_CSV_COLUMNS))
         writer.writeheader()
-        writer.writerows(records)
+        writer.writerows({k: _spreadsheet_safe(v) if k in _TEXT_COLUMNS else v for k, v in r.items()} for r in records)
     written.append(csv_path)
     pngs = []
     for i, c in enumerate(comparisons):
         fig = figure(c)
         buffer = io.BytesIO()
         fig.savefig(buffer, format="png", dpi=90)
-        path = out / f"{stem}_{i}_{Path(c.path).stem}.png"
+        path = out / f"{stem}_{i}_{_file_name_part(Path(c.path).stem)}.png"
         write_bytes(path, buffer.getvalue())
         pngs.append((path, buffer.getvalue()))
         written.append(path)
@@ -346,43 +349,74 @@ def write_comparison(comparisons: list[FileComparison], out: str | Path, *, titl
     notes = [f"Ratios are model / measured; agreement means within {100 * AGREEMENT:.0f} %; flagged rows are left out "
              "of the summary. The model is tofjax's hard analytic path of the configured camera (with each file's "
              "metadata overrides)."]
-    md = [f"# {title}", "", *(preamble or []), *notes, "", "## Summary", "", *summary, ""]
-    for c, (png_path, _) in zip(comparisons, pngs, strict=True):
-        md += [f"## {Path(c.path).name}", "", f"![{Path(c.path).name}]({png_path.name})",
+    md = [f"# {title}", "", *map(_md_text, preamble or []), *notes, "", "## Summary", "", *summary, ""]
+    for c, rows, (png_path, _) in zip(comparisons, per_file, pngs, strict=True):
+        name = _md_text(Path(c.path).name)
+        md += [f"## {name}", "", f"![{name}]({png_path.name})",
                "", "| " + " | ".join(h for _, h in _MD_COLUMNS) + " |", "|---" * len(_MD_COLUMNS) + "|"]
-        for r in (r for r in records if r["file"] == Path(c.path).name):
-            md.append("| " + " | ".join(r[k] for k, _ in _MD_COLUMNS) + " |")
+        for r in rows:
+            md.append("| " + " | ".join(_md_text(r[k]) for k, _ in _MD_COLUMNS) + " |")
         md.append("")
     md_path = out / f"{stem}.md"
     write_text(md_path, "\n".join(md))
     written.append(md_path)
     html_path = out / f"{stem}.html"
-    write_text(html_path, _html(title, preamble or [], notes, summary, comparisons, records, pngs))
+    write_text(html_path, _html(title, preamble or [], notes, summary, comparisons, per_file, pngs))
     written.append(html_path)
     return written
 
 
+def _md_cells(line: str) -> list[str]:
+    """The cells of a Markdown table row as plain text (escaped pipes and punctuation undone)."""
+    inner = line.strip().removeprefix("|").removesuffix("|")
+    return [html.unescape(re.sub(r"\\(.)", r"\1", cell)) for cell in re.split(r"(?<!\\)\|", inner)]
+
+
 def _md_table_html(lines: list[str]) -> str:
-    rows = [line.strip("|").split("|") for line in lines if not line.startswith("|---")]
+    rows = [_md_cells(line) for line in lines if not line.startswith("|---")]
     head, body = rows[0], rows[1:]
     out = ["<table><tr>" + "".join(f"<th>{html.escape(h.strip())}</th>" for h in head) + "</tr>"]
     out += ["<tr>" + "".join(f"<td>{html.escape(c.strip())}</td>" for c in r) + "</tr>" for r in body]
     return "\n".join(out) + "</table>"
 
 
-def _html(title, preamble, notes, summary, comparisons, records, pngs) -> str:
+#: The CSV's text columns (the rest are numbers): a spreadsheet must not run what they hold.
+_TEXT_COLUMNS = ("file", "flags")
+
+
+def _spreadsheet_safe(text: str) -> str:
+    """A CSV text cell a spreadsheet shows as text: one that starts as a formula would (=, +, -, @,
+    a tab or a carriage return; ``=HYPERLINK(...)`` in a file name) gets a leading apostrophe, as
+    OWASP recommends against CSV injection."""
+    return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
+
+
+def _md_text(text: str) -> str:
+    """``text`` (a file name, a path) as literal Markdown: HTML escaped, and what could make a
+    link, an image, code, emphasis or a table cell backslash-escaped (``\\ ` * [ ] |``): shown,
+    never interpreted."""
+    return re.sub(r"([\\`*\[\]|])", r"\\\1", html.escape(str(text), quote=False))
+
+
+def _file_name_part(stem: str, limit: int = 48) -> str:
+    """A part of an output file's name from an input's stem: letters, digits, ``.``, ``-`` and ``_``
+    only, at most ``limit`` characters (a 240-character input name must not break the output's)."""
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", stem)[:limit] or "file"
+
+
+def _html(title, preamble, notes, summary, comparisons, per_file, pngs) -> str:
     parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
              "<style>body{font-family:sans-serif;max-width:1300px;margin:auto}table{border-collapse:collapse;"
              "font-size:12px}td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}img{max-width:100%}"
              "tr.flag td{color:#888}</style></head><body>", f"<h1>{html.escape(title)}</h1>"]
     parts += [f"<p>{html.escape(p)}</p>" for p in [*preamble, *notes] if p]
     parts += ["<h2>Summary</h2>", _md_table_html(summary)]
-    for c, (_, png) in zip(comparisons, pngs, strict=True):
+    for c, rows, (_, png) in zip(comparisons, per_file, pngs, strict=True):
         name = Path(c.path).name
         parts += [f"<h2>{html.escape(name)}</h2>",
                   f"<img alt='{html.escape(name)}' src='data:image/png;base64,{base64.b64encode(png).decode()}'>",
                   "<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for _, h in _MD_COLUMNS) + "</tr>"]
-        for r in (r for r in records if r["file"] == name):
+        for r in rows:
             cls = " class='flag'" if r["flags"] else ""
             parts.append(f"<tr{cls}>" + "".join(f"<td>{html.escape(r[k])}</td>" for k, _ in _MD_COLUMNS) + "</tr>")
         parts.append("</table>")

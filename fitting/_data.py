@@ -127,7 +127,10 @@ def read_measurement(path: str | Path, config: tj.Config) -> Measurement:
     data = sf.read_sweep(path)
     path = str(path)
     meta = data.metadata
-    f_cfg = config.modulation_frequencies_hz
+    # The file's own overrides first: the checks below hold for the camera the file is modelled
+    # with (a "# pixel.n_phases: 3" beside "# n_phases: 4" is refused, not applied after the check).
+    file_config = _overrides(path, meta, config)
+    f_cfg = file_config.modulation_frequencies_hz
     f_file = data.modulation_frequencies_hz
     if len(f_file) != len(f_cfg):
         raise CalibrationInputError(
@@ -142,10 +145,9 @@ def read_measurement(path: str | Path, config: tj.Config) -> Measurement:
             key = "modulation_frequency_hz" if k == 0 else f"extra_modulation_frequencies_hz[{k - 1}]"
             raise CalibrationInputError(f"{path}: modulation frequency {k + 1} = {a!r} Hz in the file, but the "
                                         f"configuration has illumination_waveform.{key} = {b!r}")
-    if data.n_phases != config.params.pixel.n_phases:
+    if data.n_phases != file_config.params.pixel.n_phases:
         raise CalibrationInputError(f"{path}: n_phases = {data.n_phases} in the file, but the configuration has "
-                                    f"pixel.n_phases = {config.params.pixel.n_phases}")
-    file_config = _overrides(path, meta, config)
+                                    f"pixel.n_phases = {file_config.params.pixel.n_phases}")
     cols = dict(data.columns)
     per = data.integration_time_per
     if per != "phase_image":  # the model's unit is one phase image

@@ -141,3 +141,49 @@ def test_render_refuses_what_it_would_not_simulate(tmp_path, capsys):
     (folder / "frame.npz").mkdir(parents=True)  # D/frame.npz a directory: refused before rendering
     line = _refused(["render", "--scene", "wall", "--out", folder, "--overwrite"], capsys)
     assert "holds files tofjax did not write (frame.npz)" in line
+
+
+def test_the_frame_api_refuses_what_the_command_line_refuses(tmp_path):
+    """Values that used to return NaN frames: each a ValueError naming the argument, value and range."""
+    import jax
+    import jax.numpy as jnp
+
+    import tofjax as tj
+
+    params, settings = tj.Params(), tj.FrameSettings(subpixel_samples=1)
+    wall = tj.scene_returns(params, settings, tj.scenes.wall())
+    nan = float("nan")
+    cases = [
+        (lambda: tj.scenes.wall(nan), "tofjax.scenes.wall: distance_m = nan is out of range: allowed 0.01 <= value"),
+        (lambda: tj.scenes.wall(1.0, -0.5), "tofjax.scenes.wall: reflectivity = -0.5 is out of range"),
+        (lambda: tj.scenes.wall(1.0, 2), "tofjax.scenes.wall: reflectivity = 2.0 is out of range"),
+        (lambda: tj.scenes.wall(1.0, nan), "tofjax.scenes.wall: reflectivity = nan is out of range"),
+        (lambda: tj.scenes.sphere(radius_m=-1.0), "tofjax.scenes.sphere: radius_m = -1.0 is out of range"),
+        (lambda: tj.scenes.corner(patches_per_side=0), "patches_per_side = 0 is out of range: allowed integer 1"),
+        (lambda: tj.scenes.Plane((0, 0, 1), (0, 0, 0), 0.5), "Plane: normal = [0.0, 0.0, 0.0] is not a direction"),
+        (lambda: tj.scene_returns(params, settings, tj.scenes.wall(), sun_direction=(0, 0, 0)),
+         "sun_direction = [0.0, 0.0, 0.0] is not a direction"),
+        (lambda: tj.scene_returns(params, settings, tj.scenes.wall(), bins=0), "bins = 0 is out of range"),
+        (lambda: tj.depth_returns(params, settings, np.full(SHAPE, 1e300), 0.5),
+         "depth_m[0, 0] = 1e+300 is out of range: allowed 0.001 <= value <= 1000 [m]"),
+        (lambda: tj.depth_returns(params, settings, np.full(SHAPE, 1.0), 5.0), "reflectivity = 5.0 is out of range"),
+        (lambda: tj.Returns(jnp.full((*SHAPE, 1), nan), wall.radiance_per_w, wall.ambient_reflectivity,
+                            wall.radial_m), "tofjax.Returns: path_m[0, 0, 0] = nan is out of range"),
+        (lambda: tj.Returns(wall.path_m, -wall.radiance_per_w, wall.ambient_reflectivity, wall.radial_m),
+         "tofjax.Returns: radiance_per_w[0, 0, 0] = -"),
+        (lambda: tj.Returns(wall.path_m, wall.radiance_per_w[:, :-1], wall.ambient_reflectivity, wall.radial_m),
+         "path_m has shape (172, 224, 1) and radiance_per_w (172, 223, 1): allowed equal shapes"),
+        (lambda: tj.render_frame(params, settings, wall, jax.random.key(0), 0),
+         "frames = 0 is out of range: allowed integer >= 1"),
+    ]
+    for make, says in cases:
+        with pytest.raises(ValueError) as err:
+            make()
+        assert says in str(err.value) and "\n" not in str(err.value), str(err.value)
+    # A length-2 sun direction is a direction; one whose length underflows too.
+    for sun in ((0.0, -2.0, 0.0), (1e-200, 1e-200, 0.0)):
+        assert np.all(np.isfinite(np.asarray(tj.scene_returns(params, settings, tj.scenes.wall(), sun_direction=sun)
+                                             .ambient_reflectivity)))
+    # Traced values are checked when the program runs.
+    with pytest.raises(Exception, match="tofjax.scenes.wall: distance_m is out of range"):
+        jax.jit(lambda d: tj.scenes.wall(d).primitives[0].point)(nan).block_until_ready()

@@ -184,3 +184,39 @@ def test_calibration_leaves_out_what_the_fitted_model_cannot_measure(files, tmp_
     assert main(["calibrate", str(path), "--fit", "pixel.demodulation_contrast", "--relative-error", "0.02",
                  "--mcmc", "--walkers", "4", "--steps", "30", "--out", str(out), "--quiet"]) == 0
     assert (out / "corner.png").exists()
+
+
+def test_compare_outputs_keep_files_apart_and_show_names_as_text(files, tmp_path, capsys):
+    """Two files of one name get a report section each; a 240-character name, HTML, Markdown and a
+    spreadsheet formula in file names are shown as text; a file's override of its phases is checked."""
+    text = files[0].read_text()
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    (a / "distance.csv").write_text(text)
+    (b / "distance.csv").write_text(text)
+    long = tmp_path / ("x" * 236 + ".csv")
+    long.write_text(text)
+    odd = tmp_path / "=HYPERLINK(1)<b>|x|[l](u).csv"
+    odd.write_text(text)
+    out = tmp_path / "cmp"
+    assert main(["compare", str(a / "distance.csv"), str(b / "distance.csv"), str(long), str(odd),
+                 "--out", str(out)]) == 0
+    rows = len(D) + 1
+    md = (out / "comparison.md").read_text()
+    sections = md.split("\n## ")[2:]  # after the summary
+    assert len(sections) == 4 and all(s.count("\n| ") == rows + 1 for s in sections)  # header + its own rows
+    assert "<b>" not in md and "&lt;b&gt;" in md and "\\|x\\|\\[l\\](u)" in md
+    html = (out / "comparison.html").read_text()
+    assert "<b>" not in html and html.count("<h2>distance.csv</h2>") == 2
+    table = (out / "comparison.csv").read_text().splitlines()
+    assert len(table) == 1 + 4 * rows and sum(line.startswith("'=HYPERLINK(1)") for line in table) == rows
+    pngs = sorted(p.name for p in out.glob("*.png"))
+    assert len(pngs) == 4 and max(map(len, pngs)) < 80
+    assert "comparison_3__HYPERLINK_1_b_x_l_u_.png" in pngs
+    # "# pixel.n_phases: 3" beside "# n_phases: 4": refused, not applied after the check.
+    lines = text.splitlines()
+    lines.insert(1, "# pixel.n_phases: 3")
+    (tmp_path / "phases.csv").write_text("\n".join(lines) + "\n")
+    assert main(["compare", str(tmp_path / "phases.csv"), "--out", str(tmp_path / "c2")]) == 2
+    assert "n_phases = 4 in the file, but the configuration has pixel.n_phases = 3" in capsys.readouterr().err

@@ -248,7 +248,7 @@ def test_frames_sampled_in_several_chunks_are_the_kept_frames(params, one_ray, m
     np.testing.assert_array_equal(direct.valid, valid)
     np.testing.assert_allclose(direct.radial_m, sampled.radial_m, rtol=1e-14, atol=0)
     # Refused before any work, in one line naming the value.
-    with pytest.raises(ValueError, match=r"^iterations = 0 is out of range: allowed integer >= 1$"):
+    with pytest.raises(ValueError, match=r"^frames = 0 is out of range: allowed integer >= 1$"):
         tj.sample_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(1.3, 0.9)), jax.random.key(1), 0)
     with pytest.raises(TypeError, match=r"^returns must be tofjax.Returns, got NoneType$"):
         tj.sample_frame(params, one_ray, None, jax.random.key(1))

@@ -207,19 +207,19 @@ class PreparedCamera(eqx.Module):
     def sample(self, returns: Returns, key: PRNGKeyArray, frames: int = 1) -> NoisyFrames:
         """``frames`` noisy frames of a scene (:func:`sample_frame`): radial distance, amplitude and
         validity, ``(frames, rows, cols)``."""
-        self._check(returns)
-        check_counts(frames, frames, math.prod(self.shape), self.chain.n_phases)
+        returns = self._check(returns)
+        check_counts(frames, frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS)
         return _sample_charges(self.chain, self.expose(returns), key, frames, self.shape)
 
     def noise_image(self, returns: Returns) -> Float[Array, "rows cols"]:
         """A scene's noise image (:func:`noise_image`): each pixel's analytic standard deviation of
         its radial distance, m."""
-        self._check(returns)
+        returns = self._check(returns)
         return _noise_image_prepared(self.chain, returns.radial_m, self.expose(returns))
 
     def predict(self, returns: Returns) -> FrameResult:
         """A scene's analytic frame (:func:`predict_frame`)."""
-        self._check(returns)
+        returns = self._check(returns)
         result = _predict_prepared(self.chain, returns.radial_m, self.expose(returns))
         quality = _quality_jit(self.chain, self.settings, returns, self.direction, result)
         return FrameResult(result, returns.radial_m, self.direction, self.pattern, quality)
@@ -227,7 +227,7 @@ class PreparedCamera(eqx.Module):
     def prepare(self, returns: Returns) -> PreparedFrame:
         """A scene exposed once (:func:`prepare_frame`), with its flags' expected noise and amplitude
         (the analytic frame's) and the scene's own flags."""
-        self._check(returns)
+        returns = self._check(returns)
         exposure = self.expose(returns)
         sweep, charges, consts = _charges_and_constants(self.chain, returns.radial_m, exposure)
         expected = _predict_prepared(self.chain, sweep, charges)
@@ -238,16 +238,23 @@ class PreparedCamera(eqx.Module):
     def render(self, returns: Returns, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0,
                progress: bool = False) -> FrameResult:
         """Monte Carlo frames of a scene and their statistics (:func:`render_frame`)."""
-        self._check(returns)
-        check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases)
+        returns = self._check(returns)
+        check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS)
         return self.prepare(returns).render(key, frames, keep_frames=keep_frames, progress=progress)
 
-    def _check(self, returns) -> None:
+    def _check(self, returns) -> Returns:
+        """``returns`` for this camera: its type and shape, its values where traced
+        (:meth:`tofjax.Returns.checked`)."""
         if not isinstance(returns, Returns):
             raise TypeError(f"returns must be tofjax.Returns, got {type(returns).__name__}")
         if tuple(returns.shape) != self.shape:
             raise ValueError(f"the returns have {returns.shape[0]} x {returns.shape[1]} pixels, the camera "
                              f"{self.shape[0]} x {self.shape[1]} (rows x cols)")
+        return returns.checked()
+
+
+#: The frame functions' names of the Monte Carlo counts (:func:`tofjax._montecarlo.check_counts`).
+FRAME_COUNTS = ("frames", "keep_frames")
 
 
 def _materialised(x: Float[Array, "*b n"]) -> Float[Array, "*b n"]:
@@ -483,7 +490,7 @@ class PreparedFrame(eqx.Module):
 
     def render(self, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0, progress: bool = False) -> FrameResult:
         """``frames`` Monte Carlo frames (:func:`render_frame`, which is ``prepare_frame(...).render(...)``)."""
-        check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases)
+        check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS)
         if progress and not _jit.traced((self, key)):  # chunk by chunk from the host (tofjax.simulate's progress)
             step = frames_step(self.chain, _key_words_jit(key))
             sums, kept = drive_blocks(step, self.prepared.consts, math.prod(self.shape), frames, keep_frames,
@@ -504,7 +511,7 @@ class PreparedFrame(eqx.Module):
     def sample(self, key: PRNGKeyArray, frames: int = 1) -> NoisyFrames:
         """Only the frames: ``frames`` noisy frames' radial distance, amplitude and validity, without
         the per-pixel statistics of :meth:`render` (the frames :meth:`render` keeps for the same key)."""
-        check_counts(frames, frames, math.prod(self.shape), self.chain.n_phases)
+        check_counts(frames, frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS)
         return _sample_prepared(self.chain, self.prepared.consts, key, frames, self.shape)
 
     def _wrap(self, result: Result) -> FrameResult:

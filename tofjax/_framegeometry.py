@@ -16,12 +16,15 @@ from __future__ import annotations
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from . import _jit
 from ._params import Params, _check, _float, _static
 from ._returns import Returns, direct_returns, two_bounce_returns
-from ._scene import PixelField, Rays, SceneGeometry, pixel_field, pixel_rays, resolution, surface, surface_from_depth
+from ._scene import (PixelField, Rays, SceneGeometry, _nonzero, pixel_field, pixel_rays, resolution, surface,
+                     surface_from_depth)
+from ._schema import _is_tracer, checked_range
 
 
 class FrameSettings(eqx.Module):
@@ -101,7 +104,15 @@ def scene_returns(params: Params, settings: FrameSettings, geometry: SceneGeomet
     fusion that reads it when both are one program (224 x 172, a box on a floor: 40 ms as one
     program, 17 ms as two; a single plane is faster as one, 11 ms). Inside a transformation of the
     caller's, everything is one program anyway."""
-    sun = None if sun_direction is None else jnp.asarray(sun_direction, dtype=float)
+    if isinstance(bins, bool) or not isinstance(bins, int) or not 1 <= bins <= 4096:
+        raise ValueError(f"bins = {bins!r} is out of range: allowed integer 1 <= value <= 4096 (returns per pixel of "
+                         "the two-bounce light)")
+    sun = None
+    if sun_direction is not None:
+        sun = jnp.asarray(checked_range(sun_direction, "sun_direction"), dtype=float)
+        if sun.shape != (3,):
+            raise ValueError(f"sun_direction has shape {sun.shape}: allowed three numbers (dx, dy, dz)")
+        _nonzero(sun, "sun_direction")
     shape = frame_shape(params)
     if len(geometry.primitives) > 1 and not _jit.traced((params, settings, geometry, sun)):
         rays, surf = _rays_and_surface_jit(params, settings, geometry, sun, shape)
@@ -117,7 +128,31 @@ def depth_returns(params: Params, settings: FrameSettings, depth_m, reflectivity
     if depth.shape != shape:
         raise ValueError(f"depth map has shape {depth.shape}, the camera {shape} (rows, cols; "
                          "camera.optical_area_m / camera.pixel_pitch_m)")
-    return _depth_returns(params, settings, depth, jnp.asarray(reflectivity, dtype=float), radial, depth.shape)
+    rho = jnp.asarray(checked_range(reflectivity, "reflectivity", 0.0, 1.0), dtype=float)
+    if rho.shape not in ((), shape):
+        raise ValueError(f"reflectivity has shape {rho.shape}: allowed a number or the camera's {shape}")
+    return _depth_returns(params, settings, check_depth(depth, "depth_m"), rho, radial, depth.shape)
+
+
+#: A depth map's allowed depths, m; a non-finite or non-positive depth is a miss (no surface there).
+DEPTH_RANGE_M = (1e-3, 1e3)
+
+
+def check_depth(depth, what: str):
+    """``depth`` if every surface in it (finite and > 0) lies within :data:`DEPTH_RANGE_M`
+    (``ValueError`` naming ``what`` and the first bad element; traced: ``equinox.error_if``)."""
+    lo, hi = DEPTH_RANGE_M
+    if _is_tracer(depth):
+        surface = jnp.isfinite(depth) & (depth > 0.0)
+        return eqx.error_if(depth, jnp.any(surface & ((depth < lo) | (depth > hi))),
+                            f"{what} is out of range: allowed {lo:g} <= value <= {hi:g} [m] (inf, NaN or <= 0: no surface)")
+    d = np.asarray(depth, dtype=float)
+    bad = np.isfinite(d) & (d > 0) & ((d < lo) | (d > hi))
+    if np.any(bad):
+        i = [int(x) for x in np.argwhere(bad)[0]]
+        raise ValueError(f"{what}{i} = {float(d[tuple(i)])!r} is out of range: allowed {lo:g} <= value <= {hi:g} [m] "
+                         "(inf, NaN or <= 0: no surface)")
+    return depth
 
 
 @_jit.jit

@@ -51,18 +51,21 @@ def max_keep_frames(samples: int, n_phases: int) -> int:
     return MAX_KEPT_BYTES // (max(samples, 1) * kept_bytes_per_frame(n_phases))
 
 
-def check_counts(iterations, keep_frames, samples: int = 1, n_phases: int = 4) -> None:
+def check_counts(iterations, keep_frames, samples: int = 1, n_phases: int = 4,
+                 names: tuple[str, str] = ("iterations", "keep_frames")) -> None:
     """Frames per point (>= 1) and frames to keep (0 .. iterations, and within :data:`MAX_KEPT_BYTES`
-    for ``samples`` points), as Python integers; refused before any work."""
+    for ``samples`` points), as Python integers; refused before any work, naming the caller's
+    arguments (``names``: the frame functions say ``frames``)."""
+    many, kept = names
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
-        raise ValueError(f"iterations = {iterations!r} is out of range: allowed integer >= 1")
+        raise ValueError(f"{many} = {iterations!r} is out of range: allowed integer >= 1")
     if isinstance(keep_frames, bool) or not isinstance(keep_frames, int) or not 0 <= keep_frames <= iterations:
-        raise ValueError(f"keep_frames = {keep_frames!r} is out of range: allowed integer 0 <= value <= "
-                         f"iterations = {iterations}")
+        raise ValueError(f"{kept} = {keep_frames!r} is out of range: allowed integer 0 <= value <= "
+                         f"{many} = {iterations}")
     most = max_keep_frames(samples, n_phases)
     if keep_frames > most:
         size = keep_frames * samples * kept_bytes_per_frame(n_phases) / 2**30
-        raise ValueError(f"keep_frames = {keep_frames} is out of range for {samples} operating points ({size:.1f} GiB of "
+        raise ValueError(f"{kept} = {keep_frames} is out of range for {samples} operating points ({size:.1f} GiB of "
                          f"frames): allowed 0 <= value <= {most} (1 GiB); the statistics use every frame regardless")
 
 

@@ -53,9 +53,39 @@ class Returns(eqx.Module):
     ambient_reflectivity: Float[Array, "rows cols"]
     radial_m: Float[Array, "rows cols"]
 
+    def __check_init__(self):
+        """Shapes always; values (:data:`RETURNS_RANGES`) when concrete: a NaN path or a negative
+        radiance is refused where it is made, naming the array and the element."""
+        p, r = self.path_m, self.radiance_per_w
+        if p.ndim != 3 or p.shape != r.shape:
+            raise ValueError(f"tofjax.Returns: path_m has shape {p.shape} and radiance_per_w {r.shape}: allowed "
+                             "equal shapes (rows, cols, returns)")
+        for key in ("ambient_reflectivity", "radial_m"):
+            if getattr(self, key).shape != p.shape[:2]:
+                raise ValueError(f"tofjax.Returns: {key} has shape {getattr(self, key).shape}: allowed {p.shape[:2]} "
+                                 "(rows, cols of path_m)")
+        from ._schema import _is_tracer
+
+        for key in RETURNS_RANGES:
+            value = getattr(self, key)
+            if not _is_tracer(value):
+                check_values("tofjax.Returns", key, np.asarray(value, dtype=float))
+
     @property
     def shape(self) -> tuple[int, int]:
         return tuple(self.radial_m.shape)
+
+    def checked(self) -> Returns:
+        """These returns, their values checked where they are traced (inside a caller's ``jit``,
+        ``vmap`` or ``grad``, where construction could not): ``equinox.error_if`` on each array,
+        raising when the program runs (concrete ones were checked when made)."""
+        from ._schema import _is_tracer, checked_range
+
+        if not any(_is_tracer(getattr(self, key)) for key in RETURNS_RANGES):
+            return self
+        leaves = {key: checked_range(getattr(self, key), f"tofjax.Returns: {key}", lo, hi, allow_inf=inf, unit=unit)
+                  for key, (lo, hi, inf, unit) in RETURNS_RANGES.items()}
+        return Returns(**leaves)
 
     def __add__(self, other: Returns) -> Returns:
         """Both sets of returns (the background and truth of ``self``)."""

@@ -16,14 +16,22 @@ Lambertian reflectivity; a ray takes the nearest hit. Built-in scenes: :func:`wa
 
 from __future__ import annotations
 
+import functools
+import inspect
+
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from ._optics import lens
 from ._params import Camera
+from ._schema import checked_range
 
 _INF = jnp.inf
+#: The scene parameters' ranges: distances (m) and Lambertian reflectivities.
+_DISTANCE = (0.01, 1e3)
+_REFLECTIVITY = (0.0, 1.0)
 
 
 def _f64(x):
@@ -168,6 +176,29 @@ def _facing(normal, d):
     return normal * sign[..., None]
 
 
+def _concrete(x) -> np.ndarray | None:
+    from ._schema import _is_tracer
+
+    return None if _is_tracer(x) else np.asarray(x, dtype=float)
+
+
+def _nonzero(v, what: str) -> None:
+    """A direction must have a length (concrete values; a traced one is the caller's to check)."""
+    a = _concrete(v)
+    if a is not None and not np.any(a != 0.0):
+        raise ValueError(f"{what} = {a.tolist()} is not a direction: allowed three finite numbers, not all 0")
+
+
+def _ordered(lo, hi, what: str) -> None:
+    """Clip bounds: no NaN, ``lo <= hi`` on every axis (infinite bounds allowed: unbounded)."""
+    a, b = _concrete(lo), _concrete(hi)
+    if a is None or b is None:
+        return
+    if np.any(np.isnan(a)) or np.any(np.isnan(b)) or np.any(a > b):
+        raise ValueError(f"{what}: lo = {a.tolist()} and hi = {b.tolist()} are not bounds: allowed lo <= hi on every "
+                         "axis, no NaN")
+
+
 def _inside(p, lo, hi):
     inside = (p[..., 0] >= lo[0]) & (p[..., 0] <= hi[0])
     for k in (1, 2):
@@ -184,6 +215,13 @@ class Plane(eqx.Module):
     reflectivity: Float[Array, ""] = eqx.field(converter=_f64)
     lo: Float[Array, "3"] = eqx.field(converter=_f64, default=(-_INF, -_INF, -_INF))
     hi: Float[Array, "3"] = eqx.field(converter=_f64, default=(_INF, _INF, _INF))
+
+    def __check_init__(self):
+        checked_range(self.point, "tofjax.scenes.Plane: point", unit="m")
+        checked_range(self.normal, "tofjax.scenes.Plane: normal")
+        _nonzero(self.normal, "tofjax.scenes.Plane: normal")
+        checked_range(self.reflectivity, "tofjax.scenes.Plane: reflectivity", *_REFLECTIVITY)
+        _ordered(self.lo, self.hi, "tofjax.scenes.Plane")
 
     def intersect(self, d: Float[Array, "*r 3"]) -> Hit:
         n = self.normal / jnp.linalg.norm(self.normal)
@@ -202,6 +240,11 @@ class Sphere(eqx.Module):
     centre: Float[Array, "3"] = eqx.field(converter=_f64)
     radius: Float[Array, ""] = eqx.field(converter=_f64)
     reflectivity: Float[Array, ""] = eqx.field(converter=_f64)
+
+    def __check_init__(self):
+        checked_range(self.centre, "tofjax.scenes.Sphere: centre", unit="m")
+        checked_range(self.radius, "tofjax.scenes.Sphere: radius", 0.0, lo_open=True, unit="m")
+        checked_range(self.reflectivity, "tofjax.scenes.Sphere: reflectivity", *_REFLECTIVITY)
 
     def intersect(self, d: Float[Array, "*r 3"]) -> Hit:
         b = dot3(d, self.centre)
@@ -222,6 +265,10 @@ class Box(eqx.Module):
     lo: Float[Array, "3"] = eqx.field(converter=_f64)
     hi: Float[Array, "3"] = eqx.field(converter=_f64)
     reflectivity: Float[Array, ""] = eqx.field(converter=_f64)
+
+    def __check_init__(self):
+        _ordered(self.lo, self.hi, "tofjax.scenes.Box")
+        checked_range(self.reflectivity, "tofjax.scenes.Box: reflectivity", *_REFLECTIVITY)
 
     def intersect(self, d: Float[Array, "*r 3"]) -> Hit:
         near, far = [], []
@@ -249,6 +296,11 @@ class Patches(eqx.Module):
     normal: Float[Array, "m 3"]
     area_m2: Float[Array, " m"]
     reflectivity: Float[Array, " m"]
+
+    def __check_init__(self):
+        checked_range(self.centre, "tofjax.scenes.Patches: centre", unit="m")
+        checked_range(self.area_m2, "tofjax.scenes.Patches: area_m2", 0.0, unit="m^2")
+        checked_range(self.reflectivity, "tofjax.scenes.Patches: reflectivity", *_REFLECTIVITY)
 
 
 class SceneGeometry(eqx.Module):
@@ -341,11 +393,39 @@ def surface_from_depth(depth_m, reflectivity, rays: Rays, radial: bool = False) 
 # --- built-in scenes (distances in m, angles in degrees) ---------------------------------------------
 
 
+def _parameters(**ranges):
+    """Check a scene builder's arguments against ``ranges`` (name -> (lowest, highest), both
+    allowed) when it is called: a concrete value out of range raises ``ValueError`` naming the
+    builder, the argument, the value and the range; a traced one is wrapped in ``equinox.error_if``
+    (:func:`tofjax._schema.checked_range`). ``builder.ranges`` lists them (the command line's
+    ``NAME:key=value`` takes these)."""
+
+    def decorate(builder):
+        signature = inspect.signature(builder)
+
+        @functools.wraps(builder)
+        def checked(*args, **kwargs):
+            bound = signature.bind(*args, **kwargs)
+            for name, (lo, hi) in ranges.items():
+                if name in bound.arguments:
+                    bound.arguments[name] = checked_range(bound.arguments[name], f"tofjax.scenes.{builder.__name__}: "
+                                                          f"{name}", lo, hi)
+            return builder(*bound.args, **bound.kwargs)
+
+        checked.ranges = ranges
+        return checked
+
+    return decorate
+
+
+
+@_parameters(distance_m=_DISTANCE, reflectivity=_REFLECTIVITY)
 def wall(distance_m=1.0, reflectivity=0.9) -> SceneGeometry:
     """A flat wall perpendicular to the optical axis at ``distance_m``."""
     return SceneGeometry((Plane((0.0, 0.0, distance_m), (0.0, 0.0, 1.0), reflectivity),), name="wall")
 
 
+@_parameters(distance_m=_DISTANCE, angle_deg=(-80.0, 80.0), reflectivity=_REFLECTIVITY)
 def tilted_plane(distance_m=1.0, angle_deg=30.0, reflectivity=0.9) -> SceneGeometry:
     """A wall through (0, 0, ``distance_m``) turned by ``angle_deg`` about the vertical axis (its
     right side farther away for a positive angle)."""
@@ -355,6 +435,7 @@ def tilted_plane(distance_m=1.0, angle_deg=30.0, reflectivity=0.9) -> SceneGeome
                          name="tilted_plane")
 
 
+@_parameters(near_m=_DISTANCE, far_m=_DISTANCE, edge_x_m=(-1e3, 1e3), reflectivity=_REFLECTIVITY)
 def step_edge(near_m=1.0, far_m=2.0, edge_x_m=0.0, reflectivity=0.9) -> SceneGeometry:
     """A board at ``near_m`` covering everything left of x = ``edge_x_m`` in front of a wall at
     ``far_m``: a vertical depth edge (flying pixels along it)."""
@@ -364,6 +445,8 @@ def step_edge(near_m=1.0, far_m=2.0, edge_x_m=0.0, reflectivity=0.9) -> SceneGeo
     return SceneGeometry((board, back), name="step_edge")
 
 
+@_parameters(camera_height_m=(0.01, 100.0), wall_m=_DISTANCE, box_m=_DISTANCE, box_size_m=(0.001, 100.0),
+             reflectivity=_REFLECTIVITY, floor_reflectivity=_REFLECTIVITY)
 def box_on_floor(camera_height_m=1.0, wall_m=3.0, box_m=1.8, box_size_m=0.5, reflectivity=0.9,
                  floor_reflectivity=0.3) -> SceneGeometry:
     """A cube of ``box_size_m`` on the floor ``camera_height_m`` below the camera, its front face at
@@ -375,6 +458,7 @@ def box_on_floor(camera_height_m=1.0, wall_m=3.0, box_m=1.8, box_size_m=0.5, ref
     return SceneGeometry((floor, back, cube), name="box_on_floor")
 
 
+@_parameters(distance_m=_DISTANCE, radius_m=(0.001, 100.0), wall_m=_DISTANCE, reflectivity=_REFLECTIVITY)
 def sphere(distance_m=1.5, radius_m=0.3, wall_m=2.5, reflectivity=0.9) -> SceneGeometry:
     """A sphere whose nearest point is at ``distance_m`` on the axis, in front of a wall at ``wall_m``."""
     r = _f64(radius_m)
@@ -383,12 +467,20 @@ def sphere(distance_m=1.5, radius_m=0.3, wall_m=2.5, reflectivity=0.9) -> SceneG
     return SceneGeometry((ball, back), name="sphere")
 
 
+@_parameters(distance_m=_DISTANCE, half_angle_deg=(10.0, 80.0), height_m=(0.01, 100.0), reflectivity=_REFLECTIVITY)
 def corner(distance_m=2.0, half_angle_deg=45.0, height_m=3.0, reflectivity=0.9, patches_per_side=24,
            depth_m=None) -> SceneGeometry:
     """Two walls meeting in a vertical concave corner on the optical axis at ``distance_m``, each
     at ``half_angle_deg`` to the axis (45: a right-angle corner), ``height_m`` tall, each wall
     ``depth_m`` deep along its own surface (default: reaching the camera plane), with
-    ``patches_per_side`` x ``patches_per_side`` patches per wall for their two-bounce light."""
+    ``patches_per_side`` x ``patches_per_side`` patches per wall (an integer, 1 to 256) for their
+    two-bounce light."""
+    if isinstance(patches_per_side, bool) or not isinstance(patches_per_side, int | np.integer) \
+            or not 1 <= patches_per_side <= 256:
+        raise ValueError(f"tofjax.scenes.corner: patches_per_side = {patches_per_side!r} is out of range: allowed "
+                         "integer 1 <= value <= 256")
+    if depth_m is not None:
+        depth_m = checked_range(depth_m, "tofjax.scenes.corner: depth_m", *_DISTANCE)
     a = jnp.deg2rad(_f64(half_angle_deg))
     d = _f64(distance_m)
     apex = jnp.stack([0.0 * d, 0.0 * d, d])
@@ -414,17 +506,5 @@ def corner(distance_m=2.0, half_angle_deg=45.0, height_m=3.0, reflectivity=0.9, 
 
 
 #: Built-in scenes by name: the function and its parameters' allowed ranges (for the command line).
-BUILTIN_SCENES = {
-    "wall": (wall, {"distance_m": (0.01, 1e3), "reflectivity": (0.0, 1.0)}),
-    "tilted_plane": (tilted_plane, {"distance_m": (0.01, 1e3), "angle_deg": (-80.0, 80.0),
-                                    "reflectivity": (0.0, 1.0)}),
-    "step_edge": (step_edge, {"near_m": (0.01, 1e3), "far_m": (0.01, 1e3), "edge_x_m": (-1e3, 1e3),
-                              "reflectivity": (0.0, 1.0)}),
-    "box_on_floor": (box_on_floor, {"camera_height_m": (0.01, 100.0), "wall_m": (0.01, 1e3),
-                                    "box_m": (0.01, 1e3), "box_size_m": (0.001, 100.0),
-                                    "reflectivity": (0.0, 1.0), "floor_reflectivity": (0.0, 1.0)}),
-    "sphere": (sphere, {"distance_m": (0.01, 1e3), "radius_m": (0.001, 100.0), "wall_m": (0.01, 1e3),
-                        "reflectivity": (0.0, 1.0)}),
-    "corner": (corner, {"distance_m": (0.01, 1e3), "half_angle_deg": (10.0, 80.0), "height_m": (0.01, 100.0),
-                        "reflectivity": (0.0, 1.0)}),
-}
+BUILTIN_SCENES = {builder.__name__: (builder, builder.ranges)
+                  for builder in (wall, tilted_plane, step_edge, box_on_floor, sphere, corner)}

@@ -374,6 +374,47 @@ def check_array(section: str, name: str, value) -> None:
                          f"[{key.unit}]")
 
 
+def checked_range(value, what: str, lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
+                  hi_open: bool = False, unit: str = "", allow_inf: bool = False):
+    """``value`` (a number or an array) if every element lies in its range, named ``what`` in the
+    message (``"tofjax.scenes.wall: distance_m"``). Concrete values that do not raise ``ValueError``
+    at once, naming the first bad element; traced ones (inside the caller's ``jit``, ``vmap`` or
+    ``grad``) come back wrapped in ``equinox.error_if``, which raises when the program runs. NaN is
+    never in range; ``allow_inf``: +inf is (\"no surface\")."""
+    import numpy as np
+
+    def bad_of(x, xp):
+        ok = xp.isfinite(x) | (allow_inf & xp.isposinf(x))
+        if lo is not None:
+            ok = ok & ((x > lo) if lo_open else (x >= lo))
+        if hi is not None:
+            ok = ok & ((x < hi) if hi_open else (x <= hi))
+        return ~ok
+
+    parts = []
+    if lo is not None:
+        parts.append(f"{lo:g} {'<' if lo_open else '<='} ")
+    parts.append("value")
+    if hi is not None:
+        parts.append(f" {'<' if hi_open else '<='} {hi:g}")
+    allowed = "".join(parts) + (" or inf" if allow_inf else "") + (f" [{unit}]" if unit else "")
+    if _is_tracer(value):
+        import equinox as eqx
+        import jax.numpy as jnp
+
+        try:
+            return eqx.error_if(value, jnp.any(bad_of(value, jnp)), f"{what} is out of range: allowed {allowed}")
+        except TypeError:  # inside jax.shard_map equinox (0.13) cannot build its check: unchecked there
+            return value
+    arr = np.asarray(value, dtype=float)
+    bad = bad_of(arr, np)
+    if np.any(bad):
+        index = [int(j) for j in np.argwhere(bad)[0]]
+        shown = f"{what}{index if arr.ndim else ''} = {float(arr[tuple(index)])!r}"
+        raise ValueError(f"{shown} is out of range: allowed {allowed}")
+    return value
+
+
 def check_less(a_name: str, a, b_name: str, b) -> None:
     """Check the cross-key constraint ``a < b`` when both are concrete."""
     if _is_tracer(a) or _is_tracer(b):

@@ -123,8 +123,6 @@ def parse_scene(text: str):
     return builder, name, kwargs
 
 
-#: A depth map's allowed depths, m (non-finite or non-positive ones are misses: no surface there).
-DEPTH_RANGE_M = (1e-3, 1e3)
 _DEPTH_ARRAYS = ("z_m", "radial_m", "reflectivity")
 
 
@@ -160,6 +158,7 @@ def _load_npz_scene(path: str, params, settings, max_bytes: int):
 
     import tofjax as tj
 
+    from ._framegeometry import check_depth
     from ._npz import npz_arrays
 
     shape = tj.frame_shape(params)
@@ -173,13 +172,7 @@ def _load_npz_scene(path: str, params, settings, max_bytes: int):
     rho = arrays.get("reflectivity", np.asarray(float(params.scene.reflectivity))).astype(float)
     if depth.shape != shape:
         raise ValueError(f"--scene {path}: {key} has shape {depth.shape}, the camera {shape} (rows, cols)")
-    lo, hi = DEPTH_RANGE_M
-    surface = np.isfinite(depth) & (depth > 0)  # the rest are misses (no surface), as documented
-    bad = surface & ((depth < lo) | (depth > hi))
-    if np.any(bad):
-        i = [int(x) for x in np.argwhere(bad)[0]]
-        raise ValueError(f"--scene {path}: {key}{i} = {float(depth[tuple(i)])!r} is out of range: allowed {lo:g} <= "
-                         f"value <= {hi:g} [m] (inf, NaN or <= 0: no surface)")
+    check_depth(depth, f"--scene {path}: {key}")
     if rho.shape not in ((), shape) or not np.all(np.isfinite(rho) & (rho >= 0) & (rho <= 1)):
         raise ValueError(f"--scene {path}: reflectivity must be a number or a {shape} map with 0 <= value <= 1")
     return tj.depth_returns(params, settings, depth, rho, radial=key == "radial_m")
