@@ -137,3 +137,30 @@ def test_figure_csv_holds_the_plotted_curves_and_overlay_draws_the_previous_run(
     assert plots.overlay(plots.amplitude(near), fig) == 1
     assert len(list(csv.DictReader(io.StringIO(plots.figure_csv(fig))))) == 7
     assert plots.overlay(plots.fov_footprint(tj.Params()), previous) == 0
+
+
+def _labels(axis, fig) -> list[str]:
+    fig.canvas.draw()
+    return [t.get_text() for t in axis.get_majorticklabels() if t.get_text() and t.get_visible()]
+
+
+def test_every_axis_has_numbers_every_plot_with_several_curves_a_legend(runs):
+    """The photon transfer curve of a sweep spanning less than a decade still has numbers on its x
+    axis (it had none); calculated vs real says what its dots, line and bands are."""
+    fig = plots.photon_transfer_curve(tj.predict(tj.Params(), tj.Sweep.linspace("distance", 0.45, 4.5, 50)))
+    ax = fig.axes[0]
+    lo, hi = ax.get_xlim()
+    assert hi / lo < 10  # the default distance sweep's photo-electrons: less than a decade
+    assert len(_labels(ax.xaxis, fig)) >= 2 and len(_labels(ax.yaxis, fig)) >= 2
+    ax = plots.calculated_vs_real(runs["distance"]).axes[0]
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert legend == ["every other unambiguity interval", "frames (up to 100 per point)", "mean (circular)"]
+
+
+def test_a_frame_maps_titles_fit_their_figure():
+    """Every map's title line fits the 6.4-inch figure at matplotlib's default 12 pt (about 60
+    characters); the error map's was 61 characters on one line and cut off."""
+    from tofjax import frameio
+
+    for title, _, _ in frameio.MAPS.values():
+        assert max(map(len, title.splitlines())) <= 48, title

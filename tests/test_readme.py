@@ -30,4 +30,9 @@ def test_readme_main_job_runs_on_defaults(tmp_path, monkeypatch, capsys):
     assert main(argv[1:]) == 0
     data = sf.read_sweep(tmp_path / argv[argv.index("--out") + 1])
     assert data.n_rows == 1000 and set(data.columns["n_frames"]) == {2000.0}
-    assert "1000 samples (Monte Carlo, 2000 frames/sample)" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "1000 samples (Monte Carlo, 2000 frames/sample)" in printed
+    # The summary's unwrapped depth and the file's wrapped one cannot be taken for each other.
+    assert "unwrapped [m]" in printed.splitlines()[0] and "depth mean" not in printed
+    assert data.metadata["depth_columns"].startswith("depth_mean_m is wrapped into [0, unambiguity_range_m)")
+    assert float(data.metadata["unambiguity_range_m"]) > 1.8

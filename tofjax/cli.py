@@ -240,7 +240,7 @@ def _summary(result, elapsed_s: float, out: Path) -> str:
     unit, scale = _UNITS[result.sweep_variable]
     values = np.asarray(result.sweep_values)
     rows = np.unique(np.linspace(0, len(values) - 1, min(len(values), 10)).round().astype(int))
-    head = f"{result.sweep_variable + ' [' + unit + ']':>22} {'depth mean [m]':>15} {'depth std [mm]':>15} " \
+    head = f"{result.sweep_variable + ' [' + unit + ']':>22} {'unwrapped [m]':>15} {'depth std [mm]':>15} " \
            f"{'rel. std [%]':>13} {'amplitude [LSB]':>16} {'valid [%]':>10}"
     lines = [head, "-" * len(head)]
     dist = np.asarray(result.distance_m)
@@ -260,9 +260,10 @@ def _summary(result, elapsed_s: float, out: Path) -> str:
     du = float(result.unambiguity_range_m)
     spacing = float(np.max(np.abs(np.diff(dist)))) if len(dist) > 1 else 0.0
     if result.sweep_variable == "distance" and spacing > du / 2:
-        lines.append(f"note: 'depth mean' is unwrapped along the sweep, which needs sample spacing below half the "
+        lines.append(f"note: 'unwrapped' is the depth unwrapped along the sweep, which needs sample spacing below half the "
                      f"unambiguity range ({du / 2:.4g} m); here it is {spacing:.4g} m, so that column can be off by "
-                     f"multiples of {du:.4g} m (the CSV's depth_mean_m is the wrapped value); take more --samples")
+                     f"multiples of {du:.4g} m (the CSV's depth_unwrapped_mean_m; its depth_mean_m is the wrapped value); "
+                     "take more --samples")
     return "\n".join(lines)
 
 

@@ -17,7 +17,7 @@ from .outputs import atomic_path, write_bytes, write_text
 MAPS = {
     "radial_m": ("Measured radial distance", "m", "viridis"),
     "z_m": ("Measured Z depth", "m", "viridis"),
-    "error_mm": ("Distance error (measured - true, modulo the unambiguity range)", "mm", "coolwarm"),
+    "error_mm": ("Distance error (measured - true,\nwrapped to +- half the unambiguity range)", "mm", "coolwarm"),
     "depth_std_mm": ("Depth noise (Monte Carlo std over frames)", "mm", "magma"),
     "predicted_std_mm": ("Predicted depth noise (analytic)", "mm", "magma"),
     "amplitude_lsb": ("Amplitude", "LSB", "gray"),

@@ -13,7 +13,7 @@ import io
 
 import numpy as np
 from matplotlib.figure import Figure
-from matplotlib.ticker import NullFormatter
+from matplotlib.ticker import LogFormatterSciNotation, LogLocator, NullFormatter
 
 _AXES = {"distance": ("distance [m]", 1.0), "illuminance": ("background illuminance [lx]", 1.0),
          "integration_time": ("integration time [ms]", 1e3)}
@@ -183,9 +183,20 @@ def photon_transfer_curve(result, ax=None) -> Figure:
     # matplotlib labels them and they overlap).
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     for axis in (ax.xaxis, ax.yaxis):
-        axis.set_minor_formatter(NullFormatter())
+        _log_ticks(axis)
     ax.grid(alpha=0.3, which="both")
     return fig
+
+
+def _log_ticks(axis) -> None:
+    """Numbers on a log axis whatever its span: over less than two decades ticks at 1, 2 and 5 of
+    each decade, labelled (matplotlib labels only powers of ten there, so an axis within one decade
+    had no number at all); minor ticks never labelled (they overlapped)."""
+    lo, hi = sorted(axis.get_view_interval())
+    if lo > 0 and hi / lo < 100:
+        axis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+        axis.set_major_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(np.inf, np.inf)))
+    axis.set_minor_formatter(NullFormatter())
 
 
 def _over_sweep(result, values, ylabel: str, ax) -> Figure:
@@ -240,15 +251,17 @@ def calculated_vs_real(result, ax=None) -> Figure:
     du = float(result.unambiguity_range_m)
     for k in range(int(np.ceil(d.max() / du)) + 1):
         if k % 2 == 0:
-            ax.axvspan(k * du, (k + 1) * du, color="0.9")
+            ax.axvspan(k * du, (k + 1) * du, color="0.9", label="every other unambiguity interval" if k == 0 else None)
     frames = _frames(result, result.depth_m)
     if frames is not None:
         ax.plot(np.repeat(d, frames.shape[1]), frames.ravel(), ",", color="C0", alpha=0.3)
-    ax.plot(d, np.asarray(result.depth_mean_m), "C1-", lw=1, label="mean")
+        ax.plot([], [], ".", color="C0", label=f"frames (up to {frames.shape[1]} per point)")  # the legend's marker
+    ax.plot(d, np.asarray(result.depth_mean_m), "C1-", lw=1, label="mean (circular)")
     ax.set_xlim(d.min(), d.max())
     ax.set_xlabel("real distance [m]")
     ax.set_ylabel("calculated distance [m]")
     ax.set_title(f"unambiguity range {du:.4f} m", fontsize=9)
+    ax.legend(fontsize=8, loc="upper left")
     ax.grid(alpha=0.3)
     return fig
 
