@@ -103,6 +103,7 @@ def mc_sweep(config, baseline: Baseline, repeats: int, frames: int) -> dict:
 
     cases = {
         "tofjax": lambda i: ready(tj.simulate(params, sweep, jax.random.key(i + 10), frames)),
+        "tofjax_analytic": lambda i: ready(tj.predict(params, sweep)),
         "numpy_1_thread": lambda i: baseline.simulate(i + 10, d, lux, t_s, frames, threads=1),
         "numpy_2_threads": lambda i: baseline.simulate(i + 10, d, lux, t_s, frames, threads=2),
         "floor_tofjax_normals": lambda i: ready(floor_jax(jnp.uint32(frames * (i + 2)))),
@@ -114,6 +115,7 @@ def mc_sweep(config, baseline: Baseline, repeats: int, frames: int) -> dict:
     agree = {k: relative(getattr(r, k), b[k]) for k in ("depth_std_m", "amplitude_mean_lsb", "amplitude_std_lsb")}
     return {"seconds": t, "agreement_median_rel": agree, "phase_images": d.size * frames * n_phases,
             "ratios": {"numpy_1_thread/tofjax": t["numpy_1_thread"] / t["tofjax"],
+                       "tofjax/tofjax_analytic": t["tofjax"] / t["tofjax_analytic"],
                        "numpy_2_threads/tofjax": t["numpy_2_threads"] / t["tofjax"],
                        "tofjax/floor_tofjax_normals": t["tofjax"] / t["floor_tofjax_normals"],
                        "numpy_1_thread/floor_numpy_normals": t["numpy_1_thread"] / t["floor_numpy_normals"]},
@@ -263,6 +265,8 @@ def table(r: dict) -> str:
                  f"{mc['ratios']['numpy_1_thread/tofjax']:.1f}x", ""))
     rows.append(("MC sweep vs NumPy 2 threads", "", f"{s['numpy_2_threads']:.3f} s",
                  f"{mc['ratios']['numpy_2_threads/tofjax']:.1f}x", ">= 2x"))
+    rows.append(("analytic (tofjax.predict) on the same sweep", f"{s['tofjax_analytic']:.3f} s", "",
+                 f"MC/analytic {mc['ratios']['tofjax/tofjax_analytic']:.1f}x", ""))
     rows.append(("MC sweep: normals only (floor)", f"{s['floor_tofjax_normals']:.3f} s",
                  f"{s['floor_numpy_normals']:.3f} s",
                  f"tofjax/floor {mc['ratios']['tofjax/floor_tofjax_normals']:.1f}", ""))

@@ -202,7 +202,7 @@ def test_summary_table_pads_missing_cells_and_explains_a_coarse_unwrap(tmp_path,
     assert main(["simulate", "--sweep", "distance", "--from", "0.1", "--to", "8", "--samples", "3", "--method",
                  "analytic", "--out", str(tmp_path / "x.csv")]) == 0
     text = capsys.readouterr().out
-    assert "note: 'depth mean' is unwrapped along the sweep" in text
+    assert "note: 'unwrapped' is the depth unwrapped along the sweep" in text
     lines = text.splitlines()
     assert any(" - " in line for line in lines[2:5])  # the 0.1 m point saturates: '-' cells
     for line in lines[2:5]:

@@ -4,7 +4,6 @@ The problem structures are kept few (compilation dominates): one three-file prob
 data set) serves the recovery, posterior and CLI tests.
 """
 
-import json
 import math
 import shutil
 from pathlib import Path
@@ -243,38 +242,6 @@ def test_unconverged_fit_is_never_silent(config):
         ft.fit_least_squares(cal.problem, cal.rows, max_steps=2)
     with pytest.raises(ft.ConvergenceError, match="no posterior to sample"):
         cal.with_posterior(walkers=8, steps=10)
-
-
-def test_calibrate_command_writes_everything(tmp_path, capsys, monkeypatch):
-    from tofjax import progress
-
-    monkeypatch.setattr(progress, "QUIET_FOR_S", 0.0)  # every progress line, as a long run in a log has
-    monkeypatch.setattr(progress, "EVERY_S", 0.0)
-    out = tmp_path / "cal"
-    code = main(["calibrate", *map(str, FILES), "--config", str(EXAMPLES / "camera.toml"), "--fit", ",".join(NAMES),
-                 "--mcmc", "--walkers", "8", "--steps", "60", "--out", str(out)])
-    assert code == 0
-    captured = capsys.readouterr()
-    printed = captured.out
-    assert "least squares: converged" in printed and "pixel.demodulation_contrast" in printed
-    # The estimates come as soon as the least squares ends, before the posterior's; the log holds
-    # tofjax's own progress lines (whole counts), no carriage-return bar, and says when it writes.
-    assert printed.index("least squares: converged") < printed.index("posterior: 8 walkers x 60 steps")
-    assert "\r" not in captured.err and "posterior: 100 % (60/60 steps)" in captured.err
-    assert f"writing the results, figures and report into {out} ..." in captured.err
-    names = {p.name for p in out.iterdir()}
-    assert {"calibrated.toml", "calibration.json", "residuals.png", "corner.png", "report.md"} <= names
-    assert sum(n.startswith("fit_") for n in names) == 3
-    result = json.loads((out / "calibration.json").read_text())
-    assert result["least_squares"]["converged"] and result["posterior"]["walkers"] == 8
-    assert set(result["least_squares"]["parameters"]) == set(NAMES)
-    calibrated = tj.load_config(out / "calibrated.toml")
-    for name in NAMES:
-        section, key = name.split(".")
-        assert calibrated.values[section][key] == pytest.approx(result["least_squares"]["parameters"][name]["estimate"])
-    sim = tmp_path / "sim.csv"
-    assert main(["simulate", "--config", str(out / "calibrated.toml"), "--sweep", "distance", "--method", "analytic",
-                 "--samples", "4", "--out", str(sim)]) == 0
 
 
 @pytest.mark.parametrize(

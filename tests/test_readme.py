@@ -1,8 +1,18 @@
-"""README's two commands stay true: CI runs exactly the test command, and the main job runs."""
+"""README.md stays true: CI runs exactly its test command, the main job runs, and every other code
+block runs as written (bash blocks command by command, Python blocks each on its own), in one
+folder, in order, with the repository's `fitting/` beside them."""
 
+import contextlib
+import glob
+import io
+import os
 import re
 import shlex
+import subprocess
+import sys
 from pathlib import Path
+
+import pytest
 
 from tofjax import sweepfile as sf
 from tofjax.cli import main
@@ -10,8 +20,13 @@ from tofjax.cli import main
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def _blocks() -> list[tuple[str, str]]:
+    """(language, text) of every fenced block of README.md, in order."""
+    return re.findall(r"```(\w+)\n(.+?)\n```", (ROOT / "README.md").read_text(), re.S)
+
+
 def _readme_commands():
-    return re.findall(r"```bash\n(.+?)\n```", (ROOT / "README.md").read_text())[:2]
+    return [text for lang, text in _blocks() if lang == "bash"][:2]
 
 
 def test_ci_runs_exactly_the_readme_test_command():
@@ -36,3 +51,94 @@ def test_readme_main_job_runs_on_defaults(tmp_path, monkeypatch, capsys):
     assert "unwrapped [m]" in printed.splitlines()[0] and "depth mean" not in printed
     assert data.metadata["depth_columns"].startswith("depth_mean_m is wrapped into [0, unambiguity_range_m)")
     assert float(data.metadata["unambiguity_range_m"]) > 1.8
+
+
+def _shell_lines(text: str) -> list[str]:
+    """A bash block's commands: continuation lines joined, blank lines dropped."""
+    return [line for line in text.replace("\\\n", " ").splitlines() if line.strip()]
+
+
+def _run_command(line: str) -> None:
+    """One command line of a bash block, as a shell would run it here: ``tofjax ...`` in this
+    process (``> FILE`` redirected, globs expanded), ``python -c CODE`` in a new one."""
+    argv = shlex.split(line, comments=True)
+    target = None
+    if ">" in argv:
+        at = argv.index(">")
+        argv, target = argv[:at], argv[at + 1]
+    argv = [match for arg in argv for match in (sorted(glob.glob(arg)) if "*" in arg else [arg])]
+    if argv[:2] == ["python", "-c"]:
+        done = subprocess.run([sys.executable, "-c", argv[2]], capture_output=True, text=True)
+        assert done.returncode == 0, (line, done.stderr)
+        return
+    assert argv[0] == "tofjax", f"README block command the test cannot run: {line}"
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out) if target else contextlib.nullcontext():
+        code = main(argv[1:])
+    assert code == 0, line
+    if target:
+        Path(target).write_text(out.getvalue(), encoding="utf-8")
+
+
+def test_every_readme_block_runs_as_written(tmp_path, monkeypatch, capsys):
+    """The blocks after the two commands above, in order, in one folder (files one block writes,
+    such as camera.toml, are the next one's); each Python block in a namespace of its own, so that
+    it cannot lean on names an earlier one defined. Progress lines on, as a long run in a log has them."""
+    from tofjax import progress
+
+    monkeypatch.setattr(progress, "QUIET_FOR_S", 0.0)
+    monkeypatch.setattr(progress, "EVERY_S", 0.0)
+    (tmp_path / "fitting").symlink_to(ROOT / "fitting", target_is_directory=True)
+    monkeypatch.chdir(tmp_path)
+    blocks = _blocks()
+    first_two = [i for i, (lang, _) in enumerate(blocks) if lang == "bash"][:2]
+    ran = 0
+    for i, (lang, text) in enumerate(blocks):
+        if i in first_two:
+            continue  # the tests above
+        if lang == "bash":
+            for line in _shell_lines(text):
+                _run_command(line)
+        elif lang == "python":
+            exec(compile(text, f"README.md block {i + 1}", "exec"), {"__name__": "__readme__"})
+        else:
+            pytest.fail(f"README.md block {i + 1} is {lang!r}: add how to run it here")
+        ran += 1
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err
+    assert ran >= 7
+    # What the blocks promise: the calibration is well posed, the renders and the recording complete.
+    assert "strongly correlated" not in captured.out and "shorter than 50 autocorrelation times" not in captured.out
+    for folder in ("render", "corner", "mine", "comparison", "calibration"):
+        assert (tmp_path / folder / ".tofjax-output.json").is_file(), folder
+    assert sf.read_sweep(tmp_path / "virtual.csv").n_rows == 20
+    assert not [p for p in os.listdir(tmp_path) if ".partial-" in p]
+    _calibration_as_promised(tmp_path / "calibration", captured)
+
+
+def _calibration_as_promised(out: Path, captured) -> None:
+    """The README's calibration: every output, estimates consistent with the example's truth, the
+    calibrated camera usable by simulate; its log holds tofjax's own progress lines (whole counts,
+    no carriage-return bar), the estimates come as soon as the least squares ends (before the
+    posterior's) and it says when it writes."""
+    import json
+
+    import tofjax as tj
+
+    printed = captured.out
+    assert printed.index("least squares: converged") < printed.index("posterior: 32 walkers x 2000 steps")
+    assert "\r" not in captured.err and "posterior: 100 % (2000/2000 steps)" in captured.err
+    assert f"writing the results, figures and report into {out.name} ..." in captured.err
+    names = {p.name for p in out.iterdir()}
+    assert {"calibrated.toml", "calibration.json", "residuals.png", "corner.png", "report.md"} <= names
+    assert sum(n.startswith("fit_") for n in names) == 3
+    result = json.loads((out / "calibration.json").read_text())
+    assert result["least_squares"]["converged"] and result["posterior"]["walkers"] == 32
+    assert {t["name"]: t["verdict"] for t in result["true_values"]} == {
+        "pixel.demodulation_contrast": "consistent", "pixel.dark_slope_mean_v_per_s": "consistent"}
+    calibrated = tj.load_config(out / "calibrated.toml")
+    for name, fitted in result["least_squares"]["parameters"].items():
+        section, key = name.split(".")
+        assert calibrated.values[section][key] == pytest.approx(fitted["estimate"])
+    assert main(["simulate", "--config", str(out / "calibrated.toml"), "--sweep", "distance", "--method", "analytic",
+                 "--samples", "4", "--out", str(out.parent / "calibrated_sim.csv")]) == 0

@@ -43,7 +43,7 @@ _EXPORTS = {
     "waveform_mean": "_waveforms",
     "Chain": "_chain", "build_chain": "_chain",
     "AbstractNoiseSource": "_noise", "NoiseBudget": "_noise", "NOISE_SOURCES": "_noise",
-    "get_leaf": "_leaves", "set_leaves": "_leaves", "jit": "_jit",
+    "get_leaf": "_leaves", "set_leaves": "_leaves", "jit": "_jit", "enable_compilation_cache": "_cache",
     "SPEED_OF_LIGHT_M_PER_S": "_constants",
     "PRESETS": "_presets", "Preset": "_presets", "preset_config": "_presets", "preset_text": "_presets",
     "FrameSettings": "_framegeometry", "frame_shape": "_framegeometry", "frame_rays": "_framegeometry",
@@ -101,6 +101,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from ._returns import Returns, load_returns, save_returns  # noqa: F401
     from ._analytic import predict  # noqa: F401
     from ._background import background_irradiance_w_per_m2, background_photon_irradiance  # noqa: F401
+    from ._cache import enable_compilation_cache  # noqa: F401
     from ._chain import Chain, build_chain  # noqa: F401
     from ._constants import SPEED_OF_LIGHT_M_PER_S  # noqa: F401
     from ._config import Config, config_from_dict, default_config_text, load_config  # noqa: F401

@@ -11,8 +11,8 @@ carries its own message and exit status.
 
 Start-up: this module and the subcommands' ``register`` functions import neither JAX nor NumPy, so
 ``tofjax --help`` answers at once; a command imports what it runs. Commands that compute use JAX's
-persistent compilation cache (:func:`enable_compilation_cache`): the second run of a command starts
-warm.
+persistent compilation cache (:func:`tofjax.enable_compilation_cache`): the second run of a command
+starts warm.
 """
 
 from __future__ import annotations
@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import math
-import os
 import signal
 import sys
 import threading
@@ -28,50 +27,11 @@ from importlib.metadata import entry_points
 from pathlib import Path
 
 from . import __version__
+from ._cache import CACHE_ENV, FAST_COMPILE_XLA_FLAG, compilation_cache_dir, enable_compilation_cache  # noqa: F401
 
 _UNITS = {"distance": ("m", 1.0), "illuminance": ("lx", 1.0), "integration_time": ("ms", 1e3)}
 #: The sweep variables (as :data:`tofjax._schema.SWEEPS`, repeated here so that --help needs no import).
 _SWEEPS = ("distance", "illuminance", "integration_time")
-#: Environment variable that moves (a directory) or disables ("off", "0", "") the compilation cache.
-CACHE_ENV = "TOFJAX_CACHE_DIR"
-
-
-def compilation_cache_dir() -> str | None:
-    """Where the CLI keeps compiled programs: ``$TOFJAX_CACHE_DIR``; else an existing
-    ``$JAX_COMPILATION_CACHE_DIR``; else ``$XDG_CACHE_HOME/tofjax/jax`` (``~/.cache/tofjax/jax``).
-    ``None`` when ``TOFJAX_CACHE_DIR`` is ``off``, ``0``, ``false`` or empty."""
-    chosen = os.environ.get(CACHE_ENV)
-    if chosen is not None:
-        return None if chosen.strip().lower() in ("", "0", "off", "false", "no", "none") else chosen
-    if os.environ.get("JAX_COMPILATION_CACHE_DIR"):
-        return os.environ["JAX_COMPILATION_CACHE_DIR"]
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return os.path.join(base, "tofjax", "jax")
-
-
-#: XLA's older CPU emitters compile the many small programs of a calibration about twice as fast
-#: (cold `tofjax calibrate` of the example: 24 s -> see bench/); the commands that are
-#: compile-bound ask for them before JAX starts, unless XLA_FLAGS already chooses.
-FAST_COMPILE_XLA_FLAG = "--xla_cpu_use_fusion_emitters=false"
-
-
-def enable_compilation_cache(fast_compile: bool = False) -> str | None:
-    """Turn on JAX's persistent compilation cache for this process (:func:`compilation_cache_dir`);
-    programs that took 0.1 s or more to compile are kept. ``fast_compile``: also ask XLA for its
-    faster-compiling CPU emitters (:data:`FAST_COMPILE_XLA_FLAG`; only before JAX has started).
-    Returns the directory (or ``None``)."""
-    flags = os.environ.get("XLA_FLAGS", "")
-    if fast_compile and "jax" not in sys.modules and "fusion_emitters" not in flags:
-        os.environ["XLA_FLAGS"] = f"{flags} {FAST_COMPILE_XLA_FLAG}".strip()
-    path = compilation_cache_dir()
-    if path is None:
-        return None
-    import jax
-
-    jax.config.update("jax_compilation_cache_dir", path)
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.1)
-    return path
-
 
 class CommandError(Exception):
     """A failure a subcommand reports as one line with its own exit status (default 1)."""
