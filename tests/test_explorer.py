@@ -253,7 +253,7 @@ def test_calculate_runs_the_sweep_with_busy_lamp_time_and_the_ticked_plots():
 
 
 def test_saved_toml_round_trips_and_bad_files_are_reported(tmp_path):
-    ex = tj.explorer()
+    ex = tj.explorer(folder=tmp_path)
     _set(ex, "scene.background", "halogen")
     _set(ex, "pixel.n_phases", 3)
     _set(ex, "pixel.sbi", False)
@@ -268,7 +268,7 @@ def test_saved_toml_round_trips_and_bad_files_are_reported(tmp_path):
     assert "saved" in ex.message.value
     assert tj.load_config(path).values == ex.config.values
 
-    other = tj.explorer()
+    other = tj.explorer(folder=tmp_path)
     other.load(path)
     assert other.config.values == ex.config.values and other.message.value.startswith("loaded")
     for dotted, field in other.fields.items():  # the widgets show the loaded values
@@ -289,7 +289,7 @@ def test_saved_toml_round_trips_and_bad_files_are_reported(tmp_path):
 
 
 def test_a_run_can_be_cancelled_and_changed_settings_mark_it_stale(tmp_path):
-    ex = tj.explorer()
+    ex = tj.explorer(folder=tmp_path)
     ex.path.value = str(tmp_path / "camera.toml")
     _set(ex, "scene.samples", 12)
     _set(ex, "pixel.iterations", 40)
@@ -329,8 +329,25 @@ def test_a_run_can_be_cancelled_and_changed_settings_mark_it_stale(tmp_path):
     np.testing.assert_allclose([float(r["x"]) for r in rows], np.asarray(first.result.distance_m), rtol=1e-15)
     np.testing.assert_allclose([float(r["y"]) for r in rows], 1e3 * np.asarray(first.result.depth_std_m), rtol=1e-15)
     assert "distance_depth_noise.csv" in ex.message.value
-    assert ex.save_figure("amplitude") == tmp_path / "distance_amplitude.png" and (tmp_path / "distance_amplitude.png").exists()
+    # Every write asks before it replaces a file: the PNG just saved, the CSV exported, the report.
+    before = (tmp_path / "distance_amplitude.png").read_bytes()
+    assert ex.save_figure("amplitude") is None and "distance_amplitude.png exists" in ex.message.value
+    assert ex.overwrite_button.layout.display is None and (tmp_path / "distance_amplitude.png").read_bytes() == before
+    ex.overwrite_button.click()
+    assert "saved" in ex.message.value and ex.overwrite_button.layout.display == "none"
+    assert ex.export_csv("depth_noise") is None and "distance_depth_noise.csv exists" in ex.message.value
+    assert ex.write_report() is None and "report_distance exists" in ex.message.value
+    assert ex.overwrite_button.click() is None and "wrote" in ex.message.value  # the report, the last pending
+    assert ex.save_figures() == [] and "more exist: press Overwrite to replace them" in ex.message.value
     assert ex.export_csv("snr") is None and "no plot 'snr'" in html.unescape(ex.message.value)
+    # Nothing is read or written outside its folder; an empty path box names no file.
+    for outside in ("/tmp/elsewhere.toml", "../up.toml", ""):
+        ex.path.value = outside
+        ex.save_button.click()
+        assert ("only in" in ex.message.value or "give a file name" in ex.message.value), ex.message.value
+        assert ex.save_figure("amplitude") is None
+    assert not (tmp_path.parent / "up.toml").exists()
+    ex.path.value = str(tmp_path / "camera.toml")
 
     # Save asks before it overwrites; Reset brings every field back to the defaults.
     ex.save()

@@ -76,17 +76,18 @@ def __dir__() -> list[str]:
 __all__ = sorted([*_EXPORTS, "explorer", "__version__"])
 
 
-def explorer(config=None):
+def explorer(config=None, *, folder=None):
     """The interactive explorer, the thesis' GUI (§4.3) as an ipywidgets app: tabs Main, Pixel,
     Scene & Camera, Physical & ADC; live waveform and FoV previews; sweep, plot choice, Calculate;
-    TOML load/save. ``config``: a :class:`Config`, a TOML path or ``None`` (defaults).
+    TOML load/save. ``config``: a :class:`Config`, a TOML path or ``None`` (defaults); ``folder``:
+    the only folder it reads and writes files in (default: the working directory when it starts).
 
     Needs ipywidgets (``pip install "tofjax[notebooks]"``); returns a
     :class:`tofjax._explorer.Explorer`, shown when it is a cell's last expression.
     """
     from ._explorer import Explorer
 
-    return Explorer(config)
+    return Explorer(config, folder=folder)
 
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only

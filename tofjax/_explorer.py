@@ -50,6 +50,7 @@ from ._optics import lens, spot_area_m2
 from ._params import PhysicalConstants
 from ._run import run_sweep, sweep_file_contents
 from ._schema import KEYS, ConfigError, Key, keys_of
+from .outputs import OutputDir, OutputError, check_output, save_figure, write_text
 
 #: Sweep choices as the thesis' GUI names them (§4.3).
 SWEEP_CHOICES = (("Distance", "distance"), ("Background light", "illuminance"),
@@ -137,7 +138,7 @@ def _file_stem(variable: str, name: str) -> str:
 
 
 def _save_png(path: Path, fig) -> None:
-    fig.savefig(path, dpi=_SAVE_DPI)
+    save_figure(fig, path, dpi=_SAVE_DPI)
 
 
 class _Cancelled(Exception):
@@ -270,6 +271,11 @@ class Explorer:
 
     **Arguments:**
     - ``config``: a :class:`tofjax.Config`, a path to a TOML configuration, or ``None`` (defaults).
+    - ``folder``: the only folder the explorer reads and writes files in (default: the working
+      directory when it starts, the notebook's folder). The path box names a file in it (relative,
+      or absolute inside it); nothing outside it is read or written, so an explorer served with
+      Voila writes only there. Every file is written atomically, and one that exists is replaced
+      only after the Overwrite button (TOML, PNG, CSV and the report folder alike).
 
     **Attributes** (for scripting and tests):
     - ``config``: the last valid configuration; ``error``: the current validation message or ``None``.
@@ -285,7 +291,11 @@ class Explorer:
       ``stale``: the settings differ from the last run's.
     """
 
-    def __init__(self, config: Config | str | os.PathLike | None = None):
+    def __init__(self, config: Config | str | os.PathLike | None = None, *, folder: str | os.PathLike | None = None):
+        self.folder = Path(os.getcwd() if folder is None else folder).expanduser().resolve()
+        if not self.folder.is_dir():
+            raise ValueError(f"folder = {str(self.folder)!r} is not a directory: the explorer reads and writes files "
+                             "only in an existing folder")
         if config is None:
             config = Config()
         elif not isinstance(config, Config):
@@ -305,7 +315,7 @@ class Explorer:
         self.stale = False
         self._cancel = threading.Event()
         self._thread: threading.Thread | None = None
-        self._overwrite: Path | None = None
+        self._pending = None  # (targets, action) that waits for the Overwrite button
         self.fields = {k.dotted: _Field(k, self._raw[k.section][k.name], self._changed) for k in KEYS}
 
         self.sweep = w.Dropdown(options=SWEEP_CHOICES, value="distance", description="sweep", style=_DESCRIPTION,
@@ -358,7 +368,7 @@ class Explorer:
         self.cancel_button.on_click(lambda _b: self.cancel())
         self.load_button.on_click(lambda _b: self.load())
         self.save_button.on_click(lambda _b: self.save())
-        self.overwrite_button.on_click(lambda _b: self.save(overwrite=True))
+        self.overwrite_button.on_click(lambda _b: self._confirm())
         self.reset_button.on_click(lambda _b: self.reset())
         self.figures_button.on_click(lambda _b: self.save_figures())
         self.report_button.on_click(lambda _b: self.write_report())
@@ -704,14 +714,47 @@ class Explorer:
             f"the pixel saturates at: {at('pixel_saturates_at_lx', 'lx')}")
         return "<br>".join(html.escape(line) for line in lines)
 
-    def _path(self, path) -> Path:
+    def _path(self, path=None) -> Path | None:
+        """The file the path box (or ``path``) names, inside :attr:`folder`; ``None`` with the reason
+        in :attr:`message` for an empty box or a path outside the folder."""
         if path is not None:
             self.path.value = str(path)
-        return Path(self.path.value).expanduser()
+        text = self.path.value.strip()
+        if not text:
+            self.message.value = _error_html("give a file name in the path box")
+            return None
+        target = Path(text).expanduser()
+        target = (target if target.is_absolute() else self.folder / target).resolve()
+        if target != self.folder and self.folder not in target.parents:
+            self.message.value = _error_html(f"{text}: the explorer reads and writes files only in {self.folder} (its "
+                                             "folder, chosen when it started)")
+            return None
+        return target
 
     def _hide_overwrite(self) -> None:
-        self._overwrite = None
+        self._pending = None
         self.overwrite_button.layout.display = "none"
+
+    def _unless_overwriting(self, targets: list[Path], action, overwrite: bool) -> bool:
+        """Whether ``action`` may run now: yes if none of ``targets`` exists or ``overwrite`` was
+        confirmed for them; otherwise it waits for the Overwrite button, which the message names."""
+        existing = [p for p in targets if p.exists()]
+        if existing and not (overwrite and self._pending is not None and self._pending[0] == targets):
+            self._pending = (targets, action)
+            self.overwrite_button.layout.display = None
+            shown = existing[0].name + (f" and {len(existing) - 1} more" if len(existing) > 1 else "")
+            one = len(existing) == 1
+            self.message.value = _error_html(f"{shown} exist{'s' if one else ''}: press Overwrite to replace "
+                                             f"{'it' if one else 'them'}, or change the file name")
+            return False
+        self._hide_overwrite()
+        return True
+
+    def _confirm(self):
+        """The Overwrite button: run the action that waits for it."""
+        if self._pending is not None:
+            return self._pending[1](overwrite=True)
+        return None
 
     def _show(self, config: Config, message: str) -> None:
         """Put ``config`` into every field and make it the configuration."""
@@ -731,8 +774,10 @@ class Explorer:
         self.message.value = message
 
     def load(self, path: str | os.PathLike | None = None) -> None:
-        """Load a TOML configuration (the Load button: from the path box)."""
+        """Load a TOML configuration (the Load button: from the path box, in :attr:`folder`)."""
         path = self._path(path)
+        if path is None:
+            return
         try:
             config = load_config(path)
         except ConfigError as err:
@@ -751,81 +796,101 @@ class Explorer:
         """Write the configuration as commented TOML (the Save button: to the path box). An existing
         file is only replaced with ``overwrite`` (the Overwrite button, which the first Save shows)."""
         path = self._path(path)
+        if path is None:
+            return
         if self.error is not None:
             self.message.value = _error_html(f"not saved: fix the invalid value first ({self.error})")
             return
-        if path.exists() and not (overwrite and self._overwrite == path):
-            self._overwrite = path
-            self.overwrite_button.layout.display = None
-            self.message.value = _error_html(f"{path} exists: press Overwrite to replace it, or change the file name")
+        if not self._unless_overwriting([path], lambda overwrite: self.save(path, overwrite), overwrite):
             return
-        self._hide_overwrite()
         try:
-            path.write_text(self.config.to_toml(), encoding="utf-8")
-        except OSError as err:
-            self.message.value = _error_html(f"cannot write {path}: {err.strerror or err}")
+            write_text(path, self.config.to_toml())
+        except (OSError, OutputError) as err:
+            self.message.value = _error_html(f"cannot write {path}: {getattr(err, 'strerror', None) or err}")
             return
         self.message.value = f"saved {html.escape(str(path))}"
 
-    def _folder(self) -> Path:
-        return self._path(None).parent
+    def _folder(self) -> Path | None:
+        """The folder of the path box's file (inside :attr:`folder`): where plots and reports go."""
+        path = self._path(None)
+        return None if path is None else path.parent
 
-    def _write(self, name: str, suffix: str, write) -> Path | None:
-        if name not in self.figures:
-            self.message.value = _error_html(f"no plot {name!r} in the last run: Calculate with it ticked")
+    def _targets(self, names, suffix: str) -> list[Path] | None:
+        folder = self._folder()
+        if folder is None:
             return None
-        path = self._folder() / f"{_file_stem(self.run.sweep.variable, name)}.{suffix}"
-        try:
-            write(path, self.figures[name])
-        except OSError as err:
-            self.message.value = _error_html(f"cannot write {path}: {err.strerror or err}")
+        return [folder / f"{_file_stem(self.run.sweep.variable, name)}.{suffix}" for name in names]
+
+    def _write(self, names: list[str], suffix: str, write, overwrite: bool, again) -> list[Path] | None:
+        """Write one file per plot of ``names`` with ``write(path, figure)``, asking before any existing
+        one is replaced (``again(overwrite=True)``: what the Overwrite button runs)."""
+        missing = [n for n in names if n not in self.figures]
+        if missing:
+            self.message.value = _error_html(f"no plot {missing[0]!r} in the last run: Calculate with it ticked")
             return None
-        self.message.value = f"saved {html.escape(str(path))}"
-        return path
+        targets = self._targets(names, suffix)
+        if targets is None or not self._unless_overwriting(targets, again, overwrite):
+            return None
+        written = []
+        for name, path in zip(names, targets, strict=True):
+            try:
+                write(path, self.figures[name])
+            except (OSError, OutputError) as err:
+                self.message.value = _error_html(f"cannot write {path}: {getattr(err, 'strerror', None) or err}")
+                return None
+            written.append(path)
+        self.message.value = f"saved {html.escape(str(written[0]))}" if len(written) == 1 else \
+            f"saved {len(written)} figures into {html.escape(str(written[0].parent))}"
+        return written
 
-    def save_figure(self, name: str) -> Path | None:
-        """One plot of the last run as ``<sweep>_<plot>.png`` in the TOML file's folder (its Save PNG button)."""
-        return self._write(name, "png", _save_png)
+    def save_figure(self, name: str, overwrite: bool = False) -> Path | None:
+        """One plot of the last run as ``<sweep>_<plot>.png`` in the TOML file's folder (its Save PNG
+        button); ``None`` if it waits for Overwrite or cannot be written (:attr:`message` says)."""
+        written = self._write([name], "png", _save_png, overwrite, lambda overwrite: self.save_figure(name, overwrite))
+        return written[0] if written else None
 
-    def export_csv(self, name: str) -> Path | None:
+    def export_csv(self, name: str, overwrite: bool = False) -> Path | None:
         """The curves of one plot of the last run as ``<sweep>_<plot>.csv`` in the TOML file's folder
         (its Export CSV button; :func:`tofjax.plots.figure_csv`)."""
-        return self._write(name, "csv", lambda path, fig: path.write_text(plots.figure_csv(fig), encoding="utf-8"))
+        written = self._write([name], "csv", lambda path, fig: write_text(path, plots.figure_csv(fig)), overwrite,
+                              lambda overwrite: self.export_csv(name, overwrite))
+        return written[0] if written else None
 
-    def save_figures(self) -> list[Path]:
+    def save_figures(self, overwrite: bool = False) -> list[Path]:
         """The last run's plots as PNGs (``<sweep>_<plot>.png``, as their Save PNG buttons write them) in
-        the TOML file's folder; returns the paths written (up to a failure, which the message names)."""
+        the TOML file's folder; returns the paths written (none while it waits for Overwrite)."""
         if self.run is None or not self.figures:
             self.message.value = _error_html("no plots yet: Calculate first")
             return []
-        written = []
-        for name in self.figures:
-            path = self.save_figure(name)
-            if path is None:
-                return written
-            written.append(path)
-        self.message.value = f"saved {len(written)} figures into {html.escape(str(self._folder()))}"
-        return written
+        return self._write(list(self.figures), "png", _save_png, overwrite,
+                           lambda overwrite: self.save_figures(overwrite)) or []
 
-    def write_report(self) -> Path | None:
+    def write_report(self, overwrite: bool = False) -> Path | None:
         """The last run's tofjax-sweep CSV and HTML report (plots, headline numbers) in
-        ``report_<sweep>/`` beside the TOML file, as ``tofjax simulate --report`` writes them."""
+        ``report_<sweep>/`` beside the TOML file, as ``tofjax simulate --report`` writes them (the
+        folder replaced as a whole, after the Overwrite button if it exists)."""
         if self.run is None:
             self.message.value = _error_html("no run yet: Calculate first")
             return None
         from .report import write_report
         from .sweepfile import write_sweep
 
-        run = self.run
-        folder = self._folder() / f"report_{run.sweep.variable}"
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-            metadata, columns = sweep_file_contents(run, "(the explorer)")
-            write_sweep(folder / "sweep.csv", metadata, columns)
-            path = write_report(folder, run.config, run.result, run.elapsed_s, folder / "sweep.csv",
-                                multifrequency=run.multifrequency)
-        except OSError as err:
-            self.message.value = _error_html(f"cannot write into {folder}: {err.strerror or err}")
+        run, base = self.run, self._folder()
+        if base is None:
             return None
+        folder = base / f"report_{run.sweep.variable}"
+        if not self._unless_overwriting([folder], lambda overwrite: self.write_report(overwrite), overwrite):
+            return None
+        try:
+            check_output(folder, "report", overwrite=True, directory=True)  # never over files tofjax did not write
+            with OutputDir(folder, "the tofjax explorer", replace=True) as out:
+                metadata, columns = sweep_file_contents(run, "(the explorer)")
+                write_sweep(out.file("sweep.csv"), metadata, columns)
+                write_report(out.staging, run.config, run.result, run.elapsed_s, folder / "sweep.csv",
+                             multifrequency=run.multifrequency)
+        except (OSError, OutputError) as err:
+            self.message.value = _error_html(f"cannot write into {folder}: {getattr(err, 'strerror', None) or err}")
+            return None
+        path = folder / "report.html"
         self.message.value = f"wrote {html.escape(str(path))} and sweep.csv"
         return path
