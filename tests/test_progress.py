@@ -114,3 +114,37 @@ def test_render_reports_every_stage_and_its_frames_in_a_log(tmp_path, capsys, mo
     assert stages == ["render: casting 3^2 rays per pixel of 24 x 32 pixels and the two-bounce light",
                       "render: 3 Monte Carlo frames", "render: the analytic noise image", f"render: writing {out}"]
     assert "render: 3 frames: 100 % (1/1 chunks)" in err
+
+
+class _Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_a_terminal_bar_counts_in_whole_numbers():
+    """tqdm shows a float total as 1.0/16.0; the bar's counts are integers."""
+    clock = Clock()
+    out = _Terminal()
+    with Progress(1, "simulating", unit="chunk", stream=out, clock=clock, quiet_for_s=0.0) as p:
+        p.total = 16.0
+        clock.t = 1.0
+        p.update(1)
+        clock.t = 2.0
+        p.update(1)
+    text = out.getvalue()
+    assert "1/16 " in text and ".0/" not in text and "/16.0" not in text
+
+
+def test_scripts_and_notebooks_turn_the_compilation_cache_on():
+    import json
+    from pathlib import Path
+
+    import jax
+
+    import tofjax as tj
+
+    path = tj.enable_compilation_cache()
+    assert path is not None and jax.config.jax_compilation_cache_dir == path
+    for notebook in sorted((Path(__file__).resolve().parents[1] / "notebooks").glob("*.ipynb")):
+        cells = [c for c in json.loads(notebook.read_text())["cells"] if c["cell_type"] == "code"]
+        assert "tj.enable_compilation_cache()" in "".join(cells[1]["source"]), notebook.name

@@ -33,6 +33,9 @@ def test_ci_runs_exactly_the_readme_test_command():
     _, test_command = _readme_commands()
     ci_lines = [line.strip() for line in (ROOT / ".ci" / "run").read_text().splitlines()]
     assert test_command in ci_lines
+    # ... and that command names its ten slowest tests (pyproject.toml's addopts), so the next
+    # person sees where the suite's time goes.
+    assert "--durations=10" in (ROOT / "pyproject.toml").read_text()
 
 
 def test_readme_main_job_runs_on_defaults(tmp_path, monkeypatch, capsys):
