@@ -67,9 +67,9 @@ def run(args) -> int:
     if plan["raw_dir"] is not None:
         try:  # --resume adds the missing points' files to it
             check_output(plan["raw_dir"], plan.name("raw_dir"), overwrite=bool(plan["resume"] or args.overwrite),
-                         directory=True)
+                         directory=True, resume_option="--resume")
         except OutputError as err:
-            raise CommandError(str(err).replace("use --overwrite", "use --resume to add to it, --overwrite"), 2) from None
+            raise CommandError(str(err), 2) from None
     settings = CampaignSettings(plan["sweep"], plan["start"], plan["stop"], plan["samples"], plan["frames"],
                                 plan["roi"], plan["distance"], plan["integration_time"], plan["lux_value"],
                                 plan["settle"], plan["raw_dir"])
@@ -101,11 +101,10 @@ def run(args) -> int:
         if plan["camera"] == "virtual":
             meta["source"] = "simulation"
             meta["note"] = "virtual camera: rendered by tofjax's Monte Carlo, not a measurement"
-        def done_note(done: int, total: int) -> None:
+
+        def done_note(done: int, total: int) -> None:  # what Ctrl-C now leaves (done: the points in the file)
             on_interrupt(f"after {done} of {total} points; every completed point is in {out}; continue with --resume"
-                         if done else f"before the first point was measured ({out} holds every point recorded "
-                                      "before this run; continue with --resume)" if resume else
-                         "before the first point was measured; nothing was recorded")
+                         if done else "before the first point was measured; nothing was recorded")
 
         written = run_campaign(settings, stage=stage, camera=camera, lux=lux, out=out, metadata=meta,
                                resume=bool(plan["resume"]), distance_offset_m=plan["distance_offset"],

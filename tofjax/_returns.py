@@ -193,9 +193,13 @@ def two_bounce_returns(illumination: Illumination, falloff_exponent, baseline_m,
         lo = jnp.where(jnp.isfinite(lo), lo, 0.0)
         width = jnp.maximum(jnp.where(jnp.isfinite(hi), hi, 0.0) - lo, 1e-9)
         index = jnp.clip(jnp.floor((path - lo) / width * bins), 0, bins - 1).astype(jnp.int32)
-        one_hot = jax.nn.one_hot(index, bins, dtype=float)  # (cols, m, bins)
-        total = jnp.einsum("cm,cmb->cb", radiance, one_hot)
-        mean_path = jnp.einsum("cm,cmb->cb", radiance * path, one_hot) / jnp.where(total > 0.0, total, 1.0)
+        # Each patch's light into its bin: a scatter-add over the row's (column, bin) cells, one add
+        # per patch (a one-hot product did `bins` times as many multiply-adds; docs/model.md).
+        cell = (index + bins * jnp.arange(index.shape[0], dtype=jnp.int32)[:, None]).reshape(-1)
+        cells = index.shape[0] * bins
+        total = jax.ops.segment_sum(radiance.reshape(-1), cell, cells).reshape(-1, bins)
+        weighted = jax.ops.segment_sum((radiance * path).reshape(-1), cell, cells).reshape(-1, bins)
+        mean_path = weighted / jnp.where(total > 0.0, total, 1.0)
         return jnp.where(total > 0.0, mean_path, 0.0), total
 
     path, radiance = jax.lax.map(row, (surface.centre_t_m, surface.centre_normal, surface.centre_reflectivity,

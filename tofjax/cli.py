@@ -97,12 +97,13 @@ def output_dir(path: Path, command: str, args=None):
 
 
 #: What the command has kept so far, for the line an interrupt (Ctrl-C) prints (:func:`on_interrupt`).
-_interrupt_note = None
+_interrupt_note: str | None = None
 
 
-def on_interrupt(note) -> None:
-    """Say what an interrupt now would leave behind: a string or a function returning one
-    (``"after 5 of 20 points; every completed point is in ow.csv; continue with --resume"``)."""
+def on_interrupt(note: str | None) -> None:
+    """Say what an interrupt now would leave behind, as the end of ``tofjax: interrupted ...``
+    (``"after 5 of 20 points; every completed point is in ow.csv; continue with --resume"``); a
+    command updates it as it goes."""
     global _interrupt_note
     _interrupt_note = note
 
@@ -370,8 +371,7 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         return _simulate(args)
     except KeyboardInterrupt:
-        note = _interrupt_note() if callable(_interrupt_note) else _interrupt_note
-        print("tofjax: interrupted" + (f" {note}" if note else ""), file=sys.stderr, flush=True)
+        print("tofjax: interrupted" + (f" {_interrupt_note}" if _interrupt_note else ""), file=sys.stderr, flush=True)
         return 130
     except CommandError as err:
         print(f"tofjax: error: {err}", file=sys.stderr)

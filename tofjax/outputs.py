@@ -333,8 +333,11 @@ class OutputDir:
         return self
 
     def file(self, name: str) -> Path:
-        """Where the file ``name`` of the output goes while it is being written."""
-        return self.staging / name
+        """Where the file ``name`` (a name or a relative path) of the output goes while it is being
+        written (its folder made)."""
+        path = self.staging / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return path
 
     def __exit__(self, exc_type, exc, tb) -> None:
         if exc_type is not None:

@@ -1,11 +1,14 @@
 """Progress of long runs, with an estimate of the time left, on standard error.
 
 One reporter for every command (``simulate``'s Monte Carlo, ``calibrate``'s least squares and
-posterior, ``record``'s points): on a terminal a bar (tqdm) that shows up after the first
-:data:`QUIET_FOR_S` seconds; otherwise (a log file, CI, a pipe) one line every :data:`EVERY_S`
-seconds, ``simulating: 40 % (400/1000 chunks), 12 s elapsed, about 18 s left``, so a run that
-takes minutes is never silent and a run that takes a second prints nothing. ``enabled=False``
-(the commands' ``--quiet``) turns it off.
+posterior, ``record``'s points, ``render``'s frames): on a terminal a bar (tqdm) that shows up after
+the first :data:`QUIET_FOR_S` seconds; otherwise (a log file, CI, a pipe) one line every
+:data:`EVERY_S` seconds, ``simulating: 40 % (400/1000 chunks), 12 s elapsed, about 18 s left``, so a
+run that takes minutes is never silent and a run that takes a second prints nothing.
+:class:`Stages` names the stages of a run made of several (``render: casting rays ...``), and
+:class:`compiling` says when a cold run spends its first seconds compiling. ``enabled=False`` (the
+commands' ``--quiet``) turns them off. A Ctrl-C is recorded here (:func:`interrupt`) and raised again
+at the next step, stage or output (:func:`check_interrupt`) if Python dropped it.
 """
 
 from __future__ import annotations

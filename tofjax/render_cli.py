@@ -178,7 +178,7 @@ def _load_npz_scene(path: str, params, settings, max_bytes: int):
     return tj.depth_returns(params, settings, depth, rho, radial=key == "radial_m")
 
 
-def _check_size(name: str, geometry, params, settings, shape) -> int:
+def _check_size(name: str, geometry, settings, shape) -> int:
     """Refuse a frame whose run would not fit this process's memory (before any work, naming the
     resolution); returns the bytes an NPZ scene's arrays may take."""
     from ._limits import available_memory_bytes, frame_memory_bytes, size_text
@@ -245,7 +245,7 @@ def run(args) -> int:
                          f"extra_modulation_frequencies_hz = {config.values['illumination_waveform']['extra_modulation_frequencies_hz']}"
                          " is not supported by render (remove it, or sweep the centre pixel with tofjax simulate)")
     geometry = builder(**kwargs) if builder is not None else None
-    npz_bytes = _check_size(name, geometry, params, settings, (rows, cols))
+    npz_bytes = _check_size(name, geometry, settings, (rows, cols))
     most = max_keep_frames(rows * cols, params.pixel.n_phases)
     if args.keep_frames > most:
         raise ValueError(f"--keep-frames = {args.keep_frames} is out of range for {rows} x {cols} pixels: allowed 0 <= "
