@@ -212,9 +212,15 @@ def test_sigkill_at_any_moment_leaves_the_previous_output_or_the_complete_new_on
         args = ["render", "--scene", "step_edge", "--config", config, "--frames", "200", "--quiet", "--out", out]
         other = ["--seed", "1"]  # every file of the killed runs differs from the first run's
     else:
-        sweep = tmp_path / "s.csv"
-        _ok("simulate", "--sweep", "distance", "--from", "0.5", "--to", "3", "--samples", "6", "--iterations", "300",
-            "--quiet", "--out", sweep)
+        sweep = tmp_path / "s.csv"  # the model's own expected values, written here (no process of its own)
+        import tofjax as tj
+
+        d = np.linspace(0.5, 3.0, 6)
+        r = tj.predict(tj.Params(), tj.Sweep("distance", d))
+        cols = {c: np.asarray(getattr(r, c)) for c in ("distance_m", "integration_time_s", "illuminance_lx",
+                                                         "depth_mean_m", "depth_std_m", "amplitude_mean_lsb",
+                                                         "amplitude_std_lsb", "valid_fraction")}
+        sf.write_sweep(sweep, {**META, "source": "simulation"}, {**cols, "n_frames": np.full(6, 300.0)})
         args = ["calibrate", sweep, "--fit", "pixel.demodulation_contrast", "--quiet", "--out", out]
         other = ["--initial", "pixel.demodulation_contrast=0.3"]
     _ok(*args)
