@@ -184,6 +184,16 @@ def test_the_frame_api_refuses_what_the_command_line_refuses(tmp_path):
     for sun in ((0.0, -2.0, 0.0), (1e-200, 1e-200, 0.0)):
         assert np.all(np.isfinite(np.asarray(tj.scene_returns(params, settings, tj.scenes.wall(), sun_direction=sun)
                                              .ambient_reflectivity)))
-    # Traced values are checked when the program runs.
+    # Traced values are checked when the program runs; a pixel that sees nothing (radial inf) passes.
     with pytest.raises(Exception, match="tofjax.scenes.wall: distance_m is out of range"):
         jax.jit(lambda d: tj.scenes.wall(d).primitives[0].point)(nan).block_until_ready()
+    depth = np.full(SHAPE, 1.5)
+    depth[:, :10] = np.inf  # no surface there
+    ball = tj.depth_returns(params, settings, depth, 0.5)
+    assert np.isinf(np.asarray(ball.radial_m)).any()
+    traced = jax.jit(lambda r: tj.predict_frame(params, settings, r).radial_true_m)(ball)  # reads radial_m
+    np.testing.assert_array_equal(traced, ball.radial_m)
+    with pytest.raises(Exception, match="tofjax.Returns: radiance_per_w is out of range"):
+        jax.jit(lambda r: tj.noise_image(params, settings, tj.Returns(r.path_m, -r.radiance_per_w,
+                                                                      r.ambient_reflectivity, r.radial_m)))(
+            ball).block_until_ready()

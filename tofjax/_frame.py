@@ -46,7 +46,7 @@ from ._pattern import PixelPattern, mean_pattern
 from ._random import key_words
 from ._reduce import sum_by_slices
 from ._result import Result
-from ._returns import Returns, intensity_per_w
+from ._returns import Returns, _illuminator, intensity_per_w
 from ._scene import pixel_directions, pixel_field
 from ._smooth import Smooth
 from ._sweep import Sweep
@@ -85,9 +85,8 @@ def scene_flags(params: Params, settings: FrameSettings, returns: Returns, direc
     # The illumination's intensity towards what the pixel sees (its centre ray's point; its direction
     # where it meets nothing), from the illumination's position (the baseline).
     point = jnp.where(surface, radial, 1.0)[..., None] * direction
-    source = jnp.concatenate([jnp.asarray(settings.baseline_m, dtype=float), jnp.zeros(1)])
     outside = intensity_per_w(params.illumination, settings.illumination_falloff_exponent,
-                              point - jnp.broadcast_to(source, point.shape)) <= 0.0
+                              point - jnp.broadcast_to(_illuminator(settings.baseline_m), point.shape)) <= 0.0
     return (_bit(none, FLAG_NO_RETURN) | _bit(wrapped, FLAG_WRAPPED) | _bit(mixed, FLAG_MIXED)
             | _bit(outside, FLAG_OUTSIDE_ILLUMINATION))
 

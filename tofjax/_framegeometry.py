@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import equinox as eqx
 import jax.numpy as jnp
-import numpy as np
 from jaxtyping import Array, Float
 
 from . import _jit
@@ -24,7 +23,7 @@ from ._params import Params, _check, _float, _static
 from ._returns import Returns, direct_returns, two_bounce_returns
 from ._scene import (PixelField, Rays, SceneGeometry, _nonzero, pixel_field, pixel_rays, resolution, surface,
                      surface_from_depth)
-from ._schema import _is_tracer, checked_range
+from ._schema import checked_range
 
 
 class FrameSettings(eqx.Module):
@@ -140,19 +139,10 @@ DEPTH_RANGE_M = (1e-3, 1e3)
 
 def check_depth(depth, what: str):
     """``depth`` if every surface in it (finite and > 0) lies within :data:`DEPTH_RANGE_M`
-    (``ValueError`` naming ``what`` and the first bad element; traced: ``equinox.error_if``)."""
-    lo, hi = DEPTH_RANGE_M
-    if _is_tracer(depth):
-        surface = jnp.isfinite(depth) & (depth > 0.0)
-        return eqx.error_if(depth, jnp.any(surface & ((depth < lo) | (depth > hi))),
-                            f"{what} is out of range: allowed {lo:g} <= value <= {hi:g} [m] (inf, NaN or <= 0: no surface)")
-    d = np.asarray(depth, dtype=float)
-    bad = np.isfinite(d) & (d > 0) & ((d < lo) | (d > hi))
-    if np.any(bad):
-        i = [int(x) for x in np.argwhere(bad)[0]]
-        raise ValueError(f"{what}{i} = {float(d[tuple(i)])!r} is out of range: allowed {lo:g} <= value <= {hi:g} [m] "
-                         "(inf, NaN or <= 0: no surface)")
-    return depth
+    (:func:`tofjax._schema.checked_range`: ``ValueError`` naming ``what`` and the first bad
+    element; traced: ``equinox.error_if``)."""
+    return checked_range(depth, what, *DEPTH_RANGE_M, unit="m", note="inf, NaN or <= 0: no surface",
+                         exempt=lambda x, xp: ~(xp.isfinite(x) & (x > 0.0)))
 
 
 @_jit.jit

@@ -67,9 +67,8 @@ class Returns(eqx.Module):
         from ._schema import _is_tracer
 
         for key in RETURNS_RANGES:
-            value = getattr(self, key)
-            if not _is_tracer(value):
-                check_values("tofjax.Returns", key, np.asarray(value, dtype=float))
+            if not _is_tracer(getattr(self, key)):  # traced ones: checked()
+                check_values("tofjax.Returns", key, getattr(self, key))
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -79,13 +78,11 @@ class Returns(eqx.Module):
         """These returns, their values checked where they are traced (inside a caller's ``jit``,
         ``vmap`` or ``grad``, where construction could not): ``equinox.error_if`` on each array,
         raising when the program runs (concrete ones were checked when made)."""
-        from ._schema import _is_tracer, checked_range
+        from ._schema import _is_tracer
 
         if not any(_is_tracer(getattr(self, key)) for key in RETURNS_RANGES):
             return self
-        leaves = {key: checked_range(getattr(self, key), f"tofjax.Returns: {key}", lo, hi, allow_inf=inf, unit=unit)
-                  for key, (lo, hi, inf, unit) in RETURNS_RANGES.items()}
-        return Returns(**leaves)
+        return Returns(**{key: check_values("tofjax.Returns", key, getattr(self, key)) for key in RETURNS_RANGES})
 
     def __add__(self, other: Returns) -> Returns:
         """Both sets of returns (the background and truth of ``self``)."""
@@ -231,17 +228,14 @@ RETURNS_RANGES = {
 }
 
 
-def check_values(name: str, key: str, value: np.ndarray) -> None:
-    """``ValueError`` naming the file, the array, the first bad element and the allowed range of
-    :data:`RETURNS_RANGES`."""
+def check_values(name: str, key: str, value):
+    """``value`` if it lies in its array's range of :data:`RETURNS_RANGES`
+    (:func:`tofjax._schema.checked_range`: ``ValueError`` naming ``name``, the array and the first
+    bad element; traced: ``equinox.error_if``)."""
+    from ._schema import checked_range
+
     lo, hi, allow_inf, unit = RETURNS_RANGES[key]
-    finite = np.isfinite(value)
-    bad = ~(finite | (allow_inf & np.isposinf(value))) | (finite & ((value < lo) | (value > hi)))
-    if np.any(bad):
-        i = tuple(int(x) for x in np.argwhere(bad)[0])
-        inf = " or inf" if allow_inf else ""
-        raise ValueError(f"{name}: {key}{list(i)} = {float(value[i])!r} is out of range: allowed {lo:g} <= value <= "
-                         f"{hi:g}{inf} [{unit}]")
+    return checked_range(value, f"{name}: {key}", lo, hi, allow_inf=allow_inf, unit=unit)
 
 
 def load_returns(path, shape: tuple[int, int] | None = None, *, max_bytes: int | None = None) -> Returns:

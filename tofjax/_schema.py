@@ -375,21 +375,24 @@ def check_array(section: str, name: str, value) -> None:
 
 
 def checked_range(value, what: str, lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
-                  hi_open: bool = False, unit: str = "", allow_inf: bool = False):
+                  hi_open: bool = False, unit: str = "", allow_inf: bool = False, exempt=None, note: str = ""):
     """``value`` (a number or an array) if every element lies in its range, named ``what`` in the
     message (``"tofjax.scenes.wall: distance_m"``). Concrete values that do not raise ``ValueError``
     at once, naming the first bad element; traced ones (inside the caller's ``jit``, ``vmap`` or
     ``grad``) come back wrapped in ``equinox.error_if``, which raises when the program runs. NaN is
-    never in range; ``allow_inf``: +inf is (\"no surface\")."""
+    never in range; ``allow_inf``: +inf is (\"no surface\"). ``exempt(x, xp)``: a mask of the
+    elements that mean something else and are not checked (``xp`` is NumPy or ``jax.numpy``; a
+    depth map's misses); ``note``: said after the range, in parentheses."""
     import numpy as np
 
     def bad_of(x, xp):
-        ok = xp.isfinite(x) | (allow_inf & xp.isposinf(x))
+        ok = xp.isfinite(x)  # finite values within the range, or +inf where allowed
         if lo is not None:
             ok = ok & ((x > lo) if lo_open else (x >= lo))
         if hi is not None:
             ok = ok & ((x < hi) if hi_open else (x <= hi))
-        return ~ok
+        ok = ok | (allow_inf & xp.isposinf(x))
+        return ~ok if exempt is None else ~ok & ~exempt(x, xp)
 
     parts = []
     if lo is not None:
@@ -397,7 +400,8 @@ def checked_range(value, what: str, lo: float | None = None, hi: float | None = 
     parts.append("value")
     if hi is not None:
         parts.append(f" {'<' if hi_open else '<='} {hi:g}")
-    allowed = "".join(parts) + (" or inf" if allow_inf else "") + (f" [{unit}]" if unit else "")
+    allowed = "".join(parts) + (" or inf" if allow_inf else "") + (f" [{unit}]" if unit else "") \
+        + (f" ({note})" if note else "")
     if _is_tracer(value):
         import equinox as eqx
         import jax.numpy as jnp
