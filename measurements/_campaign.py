@@ -25,7 +25,7 @@ import numpy as np
 import tofjax as tj
 from tofjax import stats
 from tofjax import sweepfile as sf
-from tofjax.outputs import atomic_path
+from tofjax.outputs import write_npz
 
 from ._interfaces import Frames
 
@@ -188,9 +188,10 @@ def run_campaign(settings: CampaignSettings, *, stage, camera, lux, out: str | P
                 "stage_position_m": position, "requested_value": float(value), "elapsed_s": time.monotonic() - t0,
             }
             if settings.raw_dir is not None:
-                with atomic_path(Path(settings.raw_dir) / f"point_{i:04d}.npz") as tmp, open(tmp, "wb") as fh:
-                    np.savez(fh, depth_m=frames.depth_m, amplitude_lsb=frames.amplitude_lsb, valid=frames.valid,
-                             **{k: row[k] for k in ("distance_m", "integration_time_s", "illuminance_lx")})
+                write_npz(Path(settings.raw_dir) / f"point_{i:04d}.npz",
+                          {"depth_m": frames.depth_m, "amplitude_lsb": frames.amplitude_lsb, "valid": frames.valid,
+                           **{k: row[k] for k in ("distance_m", "integration_time_s", "illuminance_lx")}},
+                          compressed=False)
             if gray:  # a gray value is not the model's amplitude: its own columns (module docstring)
                 row["gray_value_mean"], row["gray_value_std"] = row.pop("amplitude_mean_lsb"), row.pop(
                     "amplitude_std_lsb")

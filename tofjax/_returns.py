@@ -208,13 +208,12 @@ def save_returns(path, returns: Returns) -> None:
     """Write ``returns`` as NPZ (atomically, :mod:`tofjax.outputs`): arrays ``path_m``,
     ``radiance_per_w`` (rows, cols, returns), ``ambient_reflectivity`` and ``radial_m`` (rows,
     cols), and ``format = "tofjax-returns/1"``."""
-    from .outputs import atomic_path
+    from .outputs import write_npz
 
-    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        np.savez_compressed(fh, format=np.array("tofjax-returns/1"), path_m=np.asarray(returns.path_m),
-                            radiance_per_w=np.asarray(returns.radiance_per_w),
-                            ambient_reflectivity=np.asarray(returns.ambient_reflectivity),
-                            radial_m=np.asarray(returns.radial_m))
+    write_npz(path, {"format": np.array("tofjax-returns/1"), "path_m": np.asarray(returns.path_m),
+                     "radiance_per_w": np.asarray(returns.radiance_per_w),
+                     "ambient_reflectivity": np.asarray(returns.ambient_reflectivity),
+                     "radial_m": np.asarray(returns.radial_m)})
 
 
 #: The arrays of a returns file and their allowed values: (lowest, highest, infinity allowed, unit).

@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from ._flags import FLAG_KEYS, FLAGS
-from .outputs import atomic_path, write_bytes, write_text
+from .outputs import save_figure, write_bytes, write_text
+from .outputs import write_npz as write_npz_file
 
 #: Map name -> (title, unit, colour map) of the PNGs.
 MAPS = {
@@ -53,10 +54,7 @@ def frame_arrays(frame, predicted=None) -> dict[str, np.ndarray]:
 def write_npz(path, arrays: dict[str, np.ndarray]) -> Path:
     """All arrays in one compressed NPZ (``format = "tofjax-frame/1"``), written atomically
     (:mod:`tofjax.outputs`)."""
-    path = Path(path)
-    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        np.savez_compressed(fh, format=np.array("tofjax-frame/1"), **arrays)
-    return path
+    return write_npz_file(path, {"format": np.array("tofjax-frame/1"), **arrays})
 
 
 def write_ply(path, points_m: np.ndarray, values: np.ndarray | None = None) -> Path:
@@ -104,8 +102,7 @@ def write_png(path, image: np.ndarray, title: str, unit: str, cmap: str = "virid
     ax.set_xlabel("column")
     ax.set_ylabel("row")
     fig.colorbar(shown, ax=ax, label=unit, shrink=0.85)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png")
+    save_figure(fig, path)
     plt.close(fig)
     return Path(path)
 

@@ -149,6 +149,15 @@ def write_text(path: str | os.PathLike, text: str, **kwargs) -> Path:
     return write_bytes(path, text.encode("utf-8"), **kwargs)
 
 
+def write_npz(path: str | os.PathLike, arrays: dict, *, compressed: bool = True) -> Path:
+    """``arrays`` as an NPZ file (``numpy.savez_compressed``, or ``numpy.savez``), atomically."""
+    import numpy as np
+
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        (np.savez_compressed if compressed else np.savez)(fh, **arrays)
+    return Path(path)
+
+
 def save_figure(fig, path: str | os.PathLike, **savefig_kwargs) -> Path:
     """``fig.savefig`` atomically (the format from ``path``'s suffix)."""
     path = Path(path)

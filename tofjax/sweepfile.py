@@ -42,6 +42,7 @@ Errors are :class:`SweepFileError` with the file, line and column.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import datetime as _dt
 import math
@@ -364,10 +365,14 @@ class SweepWriter:
       that appears while the header is written (:class:`tofjax.outputs.OutputError`).
     - ``replace_measurement``: a measurement file may be replaced too (otherwise refused:
       :class:`tofjax.outputs.OutputError`).
+    - ``atomic``: create the file under a temporary name (default); ``False`` writes ``path``
+      directly, for a caller that writes the whole file under a temporary name itself
+      (:func:`write_sweep`).
     """
 
     def __init__(self, path: str | os.PathLike, metadata: Mapping[str, object], columns: Iterable[str],
-                 *, sync: bool = True, append: bool = False, replace: bool = True, replace_measurement: bool = False):
+                 *, sync: bool = True, append: bool = False, replace: bool = True, replace_measurement: bool = False,
+                 atomic: bool = True):
         from .outputs import atomic_path
 
         self.path = Path(path)
@@ -392,9 +397,10 @@ class SweepWriter:
                 raise SweepFileError(self.path, None, None, f"cannot append: the file's columns {list(existing.columns)}"
                                                             f" differ from {self.columns}")
         else:
-            with atomic_path(self.path, replace=replace, replace_measurement=replace_measurement) as tmp:
-                tmp.write_text("".join(f"# {k}: {v}\n" for k, v in meta.items()) + ",".join(self.columns) + "\n",
-                               encoding="utf-8", newline="\n")
+            header = "".join(f"# {k}: {v}\n" for k, v in meta.items()) + ",".join(self.columns) + "\n"
+            with (atomic_path(self.path, replace=replace, replace_measurement=replace_measurement) if atomic
+                  else contextlib.nullcontext(self.path)) as target:
+                Path(target).write_text(header, encoding="utf-8", newline="\n")
         self._file: IO[str] | None = open(self.path, "a", encoding="utf-8", newline="\n")
 
     def _write(self, text: str) -> None:
@@ -461,7 +467,7 @@ def write_sweep(path: str | os.PathLike, metadata: Mapping[str, object], columns
         raise ValueError(f"columns have different lengths: { {k: len(a) for k, a in arrays.items()} }")
     n = lengths.pop()
     with atomic_path(path, replace=replace, replace_measurement=replace_measurement) as tmp:
-        with SweepWriter(tmp, metadata, arrays, sync=False) as writer:
+        with SweepWriter(tmp, metadata, arrays, sync=False, atomic=False) as writer:
             writer.write_rows(arrays, n)
     return Path(path)
 
