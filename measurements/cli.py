@@ -43,8 +43,7 @@ def _describe(plan, points) -> str:
 
 
 def run(args) -> int:
-    from tofjax.cli import CommandError, check_output_file, on_interrupt
-    from tofjax.outputs import OutputError, check_output
+    from tofjax.cli import CommandError, check_output_dir, check_output_file, on_interrupt
 
     from . import _registry as reg
     from ._settings import CampaignInputError, resolve
@@ -65,11 +64,9 @@ def run(args) -> int:
     if not resume:  # a new recording: an existing file is kept unless the user says otherwise
         check_output_file(out, plan.name("out"), args, resume_option="--resume")
     if plan["raw_dir"] is not None:
-        try:  # --resume adds the missing points' files to it
-            check_output(plan["raw_dir"], plan.name("raw_dir"), overwrite=bool(plan["resume"] or args.overwrite),
-                         directory=True, resume_option="--resume")
-        except OutputError as err:
-            raise CommandError(str(err), 2) from None
+        # --resume adds the missing points' files to it
+        check_output_dir(plan["raw_dir"], plan.name("raw_dir"), args, resume_option="--resume",
+                         overwrite=bool(plan["resume"] or args.overwrite))
     settings = CampaignSettings(plan["sweep"], plan["start"], plan["stop"], plan["samples"], plan["frames"],
                                 plan["roi"], plan["distance"], plan["integration_time"], plan["lux_value"],
                                 plan["settle"], plan["raw_dir"])

@@ -98,14 +98,9 @@ def npz_arrays(path: str | os.PathLike, wanted: tuple[str, ...], *, max_bytes: i
         return out
 
 
-def npz_names(path: str | os.PathLike) -> list[str]:
-    """The names of the arrays in the NPZ file ``path`` (``ValueError`` if it is not one)."""
+def npz_shapes(path: str | os.PathLike) -> dict[str, tuple[int, ...]]:
+    """The shape of every array in the NPZ file ``path``, from their headers only (``ValueError``
+    if it is not an NPZ file or is damaged)."""
     with _archive(path) as archive:
-        return sorted(m.removesuffix(".npy") for m in archive.namelist() if m.endswith(".npy"))
-
-
-def npz_shapes(path: str | os.PathLike, wanted: tuple[str, ...]) -> dict[str, tuple[int, ...]]:
-    """The shapes of the arrays ``wanted`` in the NPZ file ``path``, from their headers only."""
-    with _archive(path) as archive:
-        members = {m.removesuffix(".npy"): m for m in archive.namelist() if m.endswith(".npy")}
-        return {k: _header(archive, members[k], str(path))[0] for k in wanted if k in members}
+        return {m.removesuffix(".npy"): _header(archive, m, str(path))[0] for m in archive.namelist()
+                if m.endswith(".npy")}

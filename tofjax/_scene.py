@@ -418,7 +418,6 @@ def _parameters(**ranges):
     return decorate
 
 
-
 @_parameters(distance_m=_DISTANCE, reflectivity=_REFLECTIVITY)
 def wall(distance_m=1.0, reflectivity=0.9) -> SceneGeometry:
     """A flat wall perpendicular to the optical axis at ``distance_m``."""

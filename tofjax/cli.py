@@ -67,24 +67,25 @@ def check_output_file(path: Path, option: str, args=None, *, resume_option: str 
     unless ``args.overwrite``, a measurement unless ``args.force_replace_measurement`` as well
     (:func:`tofjax.outputs.check_output`); makes its directory and proves it writable. Raises
     :class:`CommandError` (exit status 2) naming ``option``."""
-    from .outputs import OutputError, check_output
-
-    try:
-        check_output(path, option, overwrite=bool(getattr(args, "overwrite", False)),
-                     force_measurement=bool(getattr(args, "force_replace_measurement", False)),
-                     resume_option=resume_option)
-    except OutputError as err:
-        raise CommandError(str(err), 2) from None
+    _check_output(path, option, args, directory=False, resume_option=resume_option)
 
 
-def check_output_dir(path: Path, option: str, args=None) -> None:
+def check_output_dir(path: Path, option: str, args=None, *, resume_option: str | None = None,
+                     overwrite: bool | None = None) -> None:
     """Before any work: may the output directory ``path`` be written (as :func:`check_output_file`;
-    a directory holding files tofjax did not write is refused even with ``--overwrite``)?"""
+    a directory holding files tofjax did not write is refused even with ``--overwrite``)?
+    ``overwrite``: instead of ``args.overwrite`` (``record --resume`` adds to its ``--raw-dir``)."""
+    _check_output(path, option, args, directory=True, resume_option=resume_option, overwrite=overwrite)
+
+
+def _check_output(path, option, args, *, directory: bool, resume_option: str | None = None,
+                  overwrite: bool | None = None) -> None:
     from .outputs import OutputError, check_output
 
     try:
-        check_output(path, option, overwrite=bool(getattr(args, "overwrite", False)),
-                     force_measurement=bool(getattr(args, "force_replace_measurement", False)), directory=True)
+        check_output(path, option, overwrite=bool(getattr(args, "overwrite", False)) if overwrite is None else overwrite,
+                     force_measurement=bool(getattr(args, "force_replace_measurement", False)),
+                     resume_option=resume_option, directory=directory)
     except OutputError as err:
         raise CommandError(str(err), 2) from None
 

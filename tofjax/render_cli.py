@@ -28,7 +28,7 @@ def register(subparsers) -> None:
                                                   "tofjax.scenes)")
     p.add_argument("--config", type=Path, help="TOML configuration (default: built-in defaults)")
     p.add_argument("--frames", type=_frame_count, default=100,
-                   help=f"Monte Carlo frames (default 100; at most {MAX_FRAMES:.0e}, as pixel.iterations)")
+                   help=f"Monte Carlo frames (default 100; at most {_max_frames():.0e}, as pixel.iterations)")
     p.add_argument("--keep-frames", type=_non_negative_int, default=1,
                    help="frames to keep whole in frame.npz (default 1; at most --frames)")
     p.add_argument("--seed", type=_non_negative_int, default=0, help="random seed of the frames (default 0)")
@@ -45,8 +45,11 @@ def register(subparsers) -> None:
     p.set_defaults(run=run)
 
 
-#: The most frames of one render (the range of ``pixel.iterations``, frames per point).
-MAX_FRAMES = 10_000_000
+def _max_frames() -> int:
+    """The most frames of one render: ``pixel.iterations``' bound (frames per point)."""
+    from ._schema import KEY_BY_DOTTED
+
+    return int(KEY_BY_DOTTED["pixel.iterations"].hi)
 
 
 def _frame_count(text: str) -> int:
@@ -56,8 +59,8 @@ def _frame_count(text: str) -> int:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if not 1 <= value <= MAX_FRAMES:
-        raise argparse.ArgumentTypeError(f"{value} is out of range: allowed integer 1 <= value <= {MAX_FRAMES} "
+    if not 1 <= value <= _max_frames():
+        raise argparse.ArgumentTypeError(f"{value} is out of range: allowed integer 1 <= value <= {_max_frames()} "
                                          "(as pixel.iterations)")
     return value
 
@@ -140,17 +143,16 @@ def _scene_option():
 def _npz_scene_kind(path: str) -> tuple[str, int]:
     """What an NPZ scene holds, from its arrays' headers only: ``("returns", returns per pixel)`` or
     ``("depth", 1)``; ``ValueError`` naming the file for anything else."""
-    from ._npz import npz_names, npz_shapes
+    from ._npz import npz_shapes
 
     with _scene_option():
-        names = npz_names(path)
-        found = npz_shapes(path, ("path_m",)).get("path_m", ())
-    if "path_m" in names:
-        return "returns", int(found[-1]) if len(found) == 3 else 1
-    if "z_m" in names or "radial_m" in names:
+        shapes = npz_shapes(path)
+    if "path_m" in shapes:
+        return "returns", shapes["path_m"][-1] if len(shapes["path_m"]) == 3 else 1
+    if "z_m" in shapes or "radial_m" in shapes:
         return "depth", 1
     raise ValueError(f"--scene {path}: holds neither returns (path_m, radiance_per_w) nor a depth map (z_m or "
-                     f"radial_m); found {', '.join(names) or 'no arrays'}")
+                     f"radial_m); found {', '.join(sorted(shapes)) or 'no arrays'}")
 
 
 def _load_npz_scene(path: str, params, settings, max_bytes: int):
