@@ -68,8 +68,12 @@ def scene_flags(params: Params, settings: FrameSettings, returns: Returns, direc
     """The flags of :data:`FLAGS` that the scene and the geometry decide: no return, wrapped,
     mixed, outside the illumination (int32, ``(rows, cols)``)."""
     du = params.unambiguity_range_m
+
+    def over_returns(x):  # adds of the few returns' slices, not XLA's slow reduction over a short axis
+        return sum_by_slices(x, -1, UNROLLED_RETURNS)
+
     radiance = returns.radiance_per_w
-    total = jnp.sum(radiance, axis=-1)
+    total = over_returns(radiance)
     radial = returns.radial_m
     surface = jnp.isfinite(radial)
     none = ~(total > 0.0) | ~surface
@@ -79,8 +83,8 @@ def scene_flags(params: Params, settings: FrameSettings, returns: Returns, direc
     # at a distance D apart: D sqrt(w (1 - w))).
     weight = radiance / jnp.where(total > 0.0, total, 1.0)[..., None]
     one_way = 0.5 * returns.path_m
-    mean = jnp.sum(weight * one_way, axis=-1)
-    spread = jnp.sqrt(jnp.maximum(jnp.sum(weight * (one_way - mean[..., None]) ** 2, axis=-1), 0.0))
+    mean = over_returns(weight * one_way)
+    spread = jnp.sqrt(jnp.maximum(over_returns(weight * (one_way - mean[..., None]) ** 2), 0.0))
     mixed = ~none & (spread > settings.mixed_spread_fraction * du)
     # The illumination's intensity towards what the pixel sees (its centre ray's point; its direction
     # where it meets nothing), from the illumination's position (the baseline).
@@ -97,12 +101,17 @@ def _bit(condition: Array, flag: int) -> Array:
     return jnp.where(condition, jnp.int32(flag), jnp.int32(0))
 
 
-def _quality(chain: Chain, settings: FrameSettings, returns: Returns, direction: Array, expected: Result
-             ) -> FrameQuality:
-    """A frame's :class:`FrameQuality` from its returns and its analytic result ``expected``."""
-    phase_std = expected.depth_std_m * 2.0 * jnp.pi / expected.unambiguity_range_m
-    return FrameQuality(scene_flags(chain.params, settings, returns, direction), phase_std,
-                        expected.amplitude_mean_lsb, settings.max_phase_noise_rad, settings.min_amplitude_lsb)
+def _quality(chain: Chain, settings: FrameSettings, returns: Returns, direction: Array, phase_std_rad: Array,
+             amplitude_lsb: Array) -> FrameQuality:
+    """A frame's :class:`FrameQuality`: its scene flags, and its expected phase noise and amplitude
+    (the analytic frame's: :func:`_phase_noise`)."""
+    return FrameQuality(_scene_flags(chain.params, settings, returns, direction), phase_std_rad, amplitude_lsb,
+                        settings.max_phase_noise_rad, settings.min_amplitude_lsb)
+
+
+def _phase_noise(expected: Result) -> tuple[Array, Array]:
+    """The expected phase noise (rad) and amplitude of an analytic frame: what its flags read."""
+    return expected.depth_std_m * 2.0 * jnp.pi / expected.unambiguity_range_m, expected.amplitude_mean_lsb
 
 
 class FrameExposure(eqx.Module):
@@ -220,7 +229,7 @@ class PreparedCamera(eqx.Module):
         """A scene's analytic frame (:func:`predict_frame`)."""
         returns = self._check(returns)
         result = _predict_prepared(self.chain, returns.radial_m, self.expose(returns))
-        quality = _quality_jit(self.chain, self.settings, returns, self.direction, result)
+        quality = _quality(self.chain, self.settings, returns, self.direction, *_phase_noise(result))
         return FrameResult(result, returns.radial_m, self.direction, self.pattern, quality)
 
     def prepare(self, returns: Returns) -> PreparedFrame:
@@ -229,8 +238,7 @@ class PreparedCamera(eqx.Module):
         returns = self._check(returns)
         exposure = self.expose(returns)
         sweep, charges, consts = _charges_and_constants(self.chain, returns.radial_m, exposure)
-        expected = _predict_prepared(self.chain, sweep, charges)
-        quality = _quality_jit(self.chain, self.settings, returns, self.direction, expected)
+        quality = _quality(self.chain, self.settings, returns, self.direction, *_expected(self.chain, sweep, charges))
         return PreparedFrame(self.chain, sweep, Prepared(charges, consts), returns.radial_m, self.direction,
                              self.pattern, quality)
 
@@ -532,7 +540,7 @@ class NoisyFrames(eqx.Module):
 # in one program: 32 ms), and the exposure's sum over the returns has two (the taps; FrameExposure).
 # Under an outer jit they are traced into one program as usual.
 _prepare_camera = _jit.jit(_camera)
-_quality_jit = _jit.jit(_quality)
+_scene_flags = _jit.jit(scene_flags)
 _key_words_jit = _jit.jit(key_words)
 
 
@@ -575,6 +583,14 @@ def _predict_prepared(chain, sweep, exposed) -> Result:
     """The analytic frame (``sweep``: the pixels' :class:`Sweep`, or their true distances)."""
     sweep = _sweep(chain.params, sweep)
     return analytic(chain, sweep, moments(chain, sweep, exposed.charges()))
+
+
+@_jit.jit
+def _expected(chain, sweep, charges) -> tuple[Array, Array]:
+    """A scene's expected phase noise and amplitude, for its flags: of the analytic frame only these,
+    in a program of their own (the whole analytic frame cost render_frame(frames=1) a third of its
+    time; with the scene's flags in the same program XLA evaluated the chain twice)."""
+    return _phase_noise(analytic(chain, sweep, moments(chain, sweep, charges)))
 
 
 @_jit.jit
