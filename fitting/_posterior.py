@@ -14,12 +14,16 @@ import dataclasses
 import warnings
 from pathlib import Path
 
-import emcee
 import jax
 import numpy as np
 
 from ._least_squares import LeastSquaresResult
 from ._problem import Problem, batched_log_posterior
+
+try:
+    import emcee
+except ImportError:  # the [fit] extra; the least squares do without it
+    emcee = None
 
 
 class ShortChainWarning(UserWarning):
@@ -86,7 +90,12 @@ def sample_posterior(problem: Problem, least_squares: LeastSquaresResult, *, wal
       continued for ``steps`` more steps.
     - ``progress``: report the steps (:class:`tofjax.progress.Progress`: a bar on a terminal, a line
       every 10 s otherwise).
+
+    Needs emcee, the ``[fit]`` extra (``pip install "tofjax[fit]"``).
     """
+    if emcee is None:
+        raise ModuleNotFoundError('fitting.sample_posterior needs emcee, which is not installed: '
+                                  'pip install "tofjax[fit]"')
     ndim = problem.n_params
     if walkers < 2 * ndim or walkers % 2:
         raise ValueError(f"walkers = {walkers} is out of range: allowed an even number >= {2 * ndim} "

@@ -73,18 +73,18 @@ def register(subparsers) -> None:
 
 def _check_outputs(args) -> None:
     """Every output before any work (a fit must not end in "cannot write" after a minute)."""
-    from tofjax.cli import CommandError, check_output_dir, check_output_file
+    from tofjax.cli import CommandError, check_output_dir, check_output_file, require
     from tofjax.outputs import relative_inside
 
+    if args.mcmc:  # the sampler and the corner plot: the [fit] extra
+        require("emcee", "fit", "--mcmc")
+        require("corner", "fit", "--mcmc")
     if args.resume and args.backend is None:
         raise CommandError("--resume continues the chain stored in --backend FILE.h5: give --backend", 2)
     if args.backend is not None:
         if not args.mcmc:
             raise CommandError("--backend stores the posterior chain: it needs --mcmc", 2)
-        try:
-            import h5py  # noqa: F401
-        except ImportError:
-            raise CommandError("--backend needs h5py: pip install h5py (or \"tofjax[hdf5]\")", 2) from None
+        require("h5py", "hdf5", "--backend")
         if relative_inside(args.backend, args.out) is not None:
             raise CommandError(f"--backend {args.backend} lies inside --out {args.out}, which is replaced as a whole "
                                "when the run ends: keep the chain outside it", 2)

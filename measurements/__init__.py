@@ -15,8 +15,8 @@ import importlib
 from typing import TYPE_CHECKING
 
 _EXPORTS = {
-    "COUNTS_PER_MM": "_apt", "AptStage": "_apt", "FtdiTransport": "_apt", "StageError": "_apt",
-    "StageLimitError": "_apt",
+    "COUNTS_PER_MM": "_apt", "AptStage": "_apt", "FtdiTransport": "_apt", "StageError": "_interfaces",
+    "StageLimitError": "_interfaces",
     "CampaignSettings": "_campaign", "campaign_metadata": "_campaign", "check_resume": "_campaign",
     "point_statistics": "_campaign", "run_campaign": "_campaign",
     "ManualLuxMeter": "_devices", "VirtualCamera": "_devices", "VirtualLuxMeter": "_devices", "VirtualStage": "_devices",
@@ -41,11 +41,12 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ._apt import COUNTS_PER_MM, AptStage, FtdiTransport, StageError, StageLimitError  # noqa: F401
+    from ._apt import COUNTS_PER_MM, AptStage, FtdiTransport  # noqa: F401
     from ._campaign import (  # noqa: F401
         CampaignSettings, campaign_metadata, check_resume, point_statistics, run_campaign)
     from ._devices import ManualLuxMeter, VirtualCamera, VirtualLuxMeter, VirtualStage  # noqa: F401
     from ._fake_apt import FakeAptController  # noqa: F401
     from ._fake_roypy import FakeRoypy  # noqa: F401
-    from ._interfaces import Camera, CameraError, DeviceError, Frames, LuxMeter, LuxMeterError, Stage  # noqa: F401
+    from ._interfaces import (  # noqa: F401
+        Camera, CameraError, DeviceError, Frames, LuxMeter, LuxMeterError, Stage, StageError, StageLimitError)
     from ._royale import RoyaleCamera  # noqa: F401

@@ -17,9 +17,15 @@ import struct
 import time
 from typing import Protocol
 
-import thorlabs_apt_protocol as apt
+from ._interfaces import StageError, StageLimitError
 
-from ._interfaces import DeviceError
+try:
+    import thorlabs_apt_protocol as apt
+except ImportError:  # the [record] extra: AptStage says so when it is built
+    apt = None
+
+#: What a missing driver library's error says.
+RECORD_EXTRA = 'pip install "tofjax[record]"'
 
 HOST = 0x01
 GENERIC_USB = 0x50
@@ -28,12 +34,7 @@ COUNTS_PER_MM = {"z8": 34304.0, "lts": 409600.0, "dds": 20000.0}
 _REQ_STATUSBITS = 0x0429
 
 
-class StageError(DeviceError):
-    """A stage failure: timeout, unexpected reply, lost device, refused move."""
-
-
-class StageLimitError(StageError, ValueError):
-    """A requested position outside the configured travel; nothing moved."""
+__all__ = ["COUNTS_PER_MM", "AptStage", "FtdiTransport", "StageError", "StageLimitError", "Transport"]
 
 
 class Transport(Protocol):
@@ -55,8 +56,8 @@ class FtdiTransport:
     def __init__(self, url: str = "ftdi://0x0403:0xfaf0/1"):
         try:
             from pyftdi.serialext import serial_for_url
-        except ImportError as err:  # pragma: no cover - pyftdi is a dependency
-            raise StageError(f"pyftdi is needed for USB stages: {err}") from None
+        except ImportError:
+            raise StageError(f"USB stages need pyftdi, which is not installed: {RECORD_EXTRA}") from None
         try:
             self._port = serial_for_url(url, baudrate=115200, bytesize=8, parity="N", stopbits=1, rtscts=True,
                                         timeout=0.05)
@@ -99,6 +100,8 @@ class AptStage:
     def __init__(self, transport: Transport, *, counts_per_mm: float, travel_m: tuple[float, float] = (0.0, 4.5),
                  channel: int = 1, timeout_s: float = 5.0, move_timeout_s: float = 300.0,
                  destination: int = GENERIC_USB):
+        if apt is None:
+            raise StageError(f"APT stages need thorlabs-apt-protocol, which is not installed: {RECORD_EXTRA}")
         if not counts_per_mm > 0:
             raise ValueError(f"counts_per_mm = {counts_per_mm!r} is out of range: allowed value > 0")
         if not travel_m[0] < travel_m[1]:

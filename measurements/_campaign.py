@@ -27,7 +27,7 @@ from tofjax import stats
 from tofjax import sweepfile as sf
 from tofjax.outputs import write_npz
 
-from ._interfaces import Frames
+from ._interfaces import Frames, StageLimitError
 
 SWEEPS = ("distance", "integration_time", "illuminance")
 EXTRA_COLUMNS = ("stage_position_m", "requested_value", "elapsed_s")
@@ -148,8 +148,6 @@ def run_campaign(settings: CampaignSettings, *, stage, camera, lux, out: str | P
     positions = settings.points - distance_offset_m if settings.sweep == "distance" else \
         np.array([settings.distance_m - distance_offset_m])
     if np.any((positions < lo) | (positions > hi)):
-        from ._apt import StageLimitError
-
         raise StageLimitError(f"stage positions {positions.min():g} .. {positions.max():g} m leave the travel "
                               f"{lo:g} .. {hi:g} m; nothing moved")
     if settings.sweep == "integration_time":

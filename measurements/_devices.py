@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 import tofjax as tj
 
-from ._interfaces import Frames, LuxMeterError
+from ._interfaces import Frames, LuxMeterError, StageLimitError
 
 
 class VirtualStage:
@@ -33,8 +33,6 @@ class VirtualStage:
         self._position = self.travel_m[0]
 
     def move_to(self, position_m: float) -> float:
-        from ._apt import StageLimitError
-
         lo, hi = self.travel_m
         if not lo <= position_m <= hi:
             raise StageLimitError(f"stage position {float(position_m):g} m is outside the travel: allowed {lo:g} <= value "

@@ -11,7 +11,7 @@ from __future__ import annotations
 import struct
 import time
 
-from ._apt import StageError
+from ._interfaces import StageError
 
 _HOST = 0x01
 _DEVICE = 0x50

@@ -26,6 +26,14 @@ class CameraError(DeviceError):
     """A camera failure or a missing SDK."""
 
 
+class StageError(DeviceError):
+    """A stage failure: timeout, unexpected reply, lost device, refused move."""
+
+
+class StageLimitError(StageError, ValueError):
+    """A requested position outside the configured travel; nothing moved."""
+
+
 class LuxMeterError(DeviceError):
     """A lux meter that cannot give a reading (e.g. no operator at the terminal)."""
 

@@ -19,6 +19,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import tofjax as tj
 from tofjax import sweepfile as sf
 from tofjax.cli import main
 
@@ -125,10 +126,25 @@ def test_campaign_file_with_a_byte_order_mark_is_read(tmp_path, capsys):
      r"^tofjax: error: --from = -1.0 is out of range for the distance sweep: allowed 0 < value <= 1000 \[m\]$"),
     (["simulate", "--sweep", "distance", "--samples", "3", "--out", "/proc/x.csv"], r"--out /proc/x.csv: cannot write"),
     (["simulate", "--sweep", "distance", "--samples", "3", "--report", "/proc/r"], r"--report /proc/r: cannot write"),
+    (["simulate", "--sweep", "distance", "--samples", "3", "--method", "analytic", "--fixed-pattern", "--out",
+      "{tmp}/x.csv"], r"^tofjax: error: --fixed-pattern needs the Monte Carlo \(--method 'mc'\)"),
 ])
 def test_calibrate_and_simulate_refuse_before_any_work(tmp_path, capsys, args, pattern):
     code, err = _run([str(a).replace("{tmp}", str(tmp_path)) for a in args], capsys)
     assert code == 2 and re.search(pattern, _one_clear_line(err)), err
+
+
+def test_a_fixed_pattern_is_refused_where_a_run_would_drop_it():
+    """The analytic and the multi-frequency sweeps draw no pattern: asking for one is an error, not a
+    file that says ``fixed_pattern: true`` of a run without it."""
+    from tofjax._run import run_sweep
+
+    config = tj.config_from_dict({"illumination_waveform": {"extra_modulation_frequencies_hz": [60.24e6]}})
+    sweep = tj.Config().sweep("distance", 1.0, 2.0, 2)
+    with pytest.raises(ValueError, match="needs one modulation frequency: the multi-frequency run draws no pattern"):
+        run_sweep(config, sweep, "mc", 8, fixed_pattern=True)
+    with pytest.raises(ValueError, match=r"needs the Monte Carlo \(method 'mc'\)"):
+        run_sweep(tj.Config(), sweep, "analytic", fixed_pattern=True)
 
 
 @pytest.mark.parametrize("text, pattern", [

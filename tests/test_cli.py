@@ -116,3 +116,49 @@ def test_run_sweep_refuses_unknown_methods_and_fuses_frequencies_analytically():
     np.testing.assert_allclose(np.asarray(fused.depth_std_m), (per[0] ** -2 + per[1] ** -2) ** -0.5, rtol=1e-12)
     run = run_sweep(config, sweep, "analytic")
     assert run.result.method == "analytic" and run.multifrequency is None and run.elapsed_s > 0
+
+
+#: The libraries of the extras [fit] (emcee, corner) and [record] (pyusb, pyftdi, thorlabs-apt-protocol).
+_EXTRA_MODULES = ("emcee", "corner", "usb", "pyftdi", "thorlabs_apt_protocol")
+
+
+def test_the_base_install_needs_no_extra_and_a_command_names_the_one_it_needs(tmp_path):
+    """The base dependencies leave out [fit] and [record] (which [test] brings); with their libraries
+    unimportable, the model and the simulate command run, and calibrate --mcmc and an APT stage say
+    in one line which extra to install, exit 2, before any work."""
+    from pathlib import Path
+
+    project = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())["project"]
+    base = " ".join(project["dependencies"])
+    extras = project["optional-dependencies"]
+    for name in ("emcee", "corner", "pyusb", "pyftdi", "thorlabs-apt-protocol"):
+        assert name not in base
+        assert any(name in d for d in extras["fit"] + extras["record"])
+    assert "tofjax[fit,record,notebooks,hdf5]" in extras["test"]
+    example = Path(__file__).parents[1] / "fitting" / "examples"
+    script = f"""
+import sys
+sys.modules.update(dict.fromkeys({_EXTRA_MODULES!r}))  # None: "import emcee" raises ImportError
+import tofjax as tj
+from tofjax.cli import main
+assert tj.predict(tj.Params(), tj.Sweep("distance", [1.0])).depth_std_m.shape == (1,)
+assert main(["simulate", "--sweep", "distance", "--samples", "2", "--iterations", "8", "--out", r"{tmp_path / 's.csv'}"]) == 0
+assert main(["calibrate", r"{example / 'distance.csv'}", "--fit", "pixel.demodulation_contrast", "--out", r"{tmp_path / 'cal'}", "--mcmc"]) == 2
+assert main(["record", "--sweep", "distance", "--from", "1", "--to", "2", "--samples", "2", "--stage", "fake",
+             "--out", r"{tmp_path / 'r.csv'}"]) == 2
+import fitting
+try:
+    fitting.sample_posterior(None, None)
+except ModuleNotFoundError as err:
+    print(err, file=sys.stderr)
+loaded = [m for m in {_EXTRA_MODULES!r} if sys.modules.get(m) is not None]
+assert not loaded, loaded
+"""
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    lines = run.stderr.splitlines()
+    assert 'tofjax: error: --mcmc needs emcee, which is not installed: pip install "tofjax[fit]"' in lines
+    assert ('tofjax: error: APT stages need thorlabs-apt-protocol, which is not installed: '
+            'pip install "tofjax[record]"') in lines
+    assert 'fitting.sample_posterior needs emcee, which is not installed: pip install "tofjax[fit]"' in lines
+    assert not (tmp_path / "cal").exists() and not (tmp_path / "r.csv").exists()

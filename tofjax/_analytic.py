@@ -18,7 +18,7 @@ from jaxtyping import Array
 from . import _depth, _jit
 from ._adc import saturated
 from ._chain import Chain, build_chain
-from ._mixer import TapCharges
+from ._charges import TapCharges
 from ._noise import AFTER_LIMIT, BEFORE_LIMIT
 from ._params import Params
 from ._reduce import max_last, mean_last

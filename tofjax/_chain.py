@@ -21,7 +21,8 @@ from jaxtyping import Array, Float
 
 from ._adc import Readout
 from ._correlation import SERIES_POINTS, Correlation, correlation
-from ._mixer import TapCharges, expose
+from ._charges import TapCharges
+from ._mixer import expose
 from ._noise import NoiseBudget
 from ._params import Params
 from ._saturation import AbstractLimit, full_well_e, limit_stage

@@ -37,7 +37,8 @@ from ._flags import (FLAG_LOW_AMPLITUDE, FLAG_LOW_SIGNAL, FLAG_MIXED, FLAG_NO_RE
                      FLAG_SATURATED, FLAG_WRAPPED)
 from ._framegeometry import FrameSettings, frame_shape, pixel_etendue_m2_sr
 from ._frames import PointCharges, draw_frames, drive_blocks, equal_parts
-from ._mixer import TapCharges, scene_photon_irradiance
+from ._charges import TapCharges
+from ._mixer import scene_photon_irradiance
 from ._montecarlo import Prepared, assemble, assemble_jit, check_counts, frames_step, run_blocks
 from ._noise import dark_electrons
 from ._optics import photon_energy_j, quantum_efficiency

@@ -35,7 +35,7 @@ from jaxtyping import Array
 
 from . import _depth, _jit
 from ._chain import Chain
-from ._mixer import TapCharges
+from ._charges import TapCharges
 from ._noise import AFTER_LIMIT, BEFORE_LIMIT
 from ._random import MAX_ABS_NORMAL, normals
 from ._reduce import sum_by_slices

@@ -15,7 +15,7 @@ from ._chain import Chain, build_chain
 from ._depth import unwrap_along_sweep
 from ._frames import (BLOCK_POINTS, CHUNK_ELEMENTS, PointConstants, Sums, draw_frames, drive_blocks, frame_statistics,
                       point_constants, reduce_frames, run_blocks)
-from ._mixer import TapCharges
+from ._charges import TapCharges
 from ._params import Params
 from ._random import key_words
 from ._reduce import mean_last

@@ -44,7 +44,7 @@ from ._params import Params, PhysicalConstants, Pixel
 from ._reduce import mean_last
 
 if TYPE_CHECKING:
-    from ._mixer import TapCharges
+    from ._charges import TapCharges
     from ._result import NoiseBreakdown
 
 #: A source acting on the collected tap charge, before SBI and saturation.

@@ -52,10 +52,14 @@ def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int 
     Several modulation frequencies (``extra_modulation_frequencies_hz``) are fused as
     ``illumination_waveform.frequency_fusion`` says: frame by frame (``"mc"``) or analytically
     (``"analytic"``: :func:`tofjax.predict_multifrequency`, noise for the correct unwrap, no
-    wrong-unwrap fraction). Raises ``ValueError`` for an unknown method.
+    wrong-unwrap fraction). Raises ``ValueError`` for an unknown method, and for ``fixed_pattern``
+    where it cannot act (:func:`fixed_pattern_problem`).
     """
     if method not in METHODS:
         raise ValueError(f"method = {method!r} is not allowed: expected one of {', '.join(map(repr, METHODS))}")
+    problem = fixed_pattern_problem(config, method) if fixed_pattern else None
+    if problem:
+        raise ValueError(f"fixed_pattern = True {problem}")
     iterations = config.iterations if iterations is None else iterations
     params, freqs = config.params, config.modulation_frequencies_hz
     fusion = config.values["illumination_waveform"]["frequency_fusion"]
@@ -78,6 +82,18 @@ def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int 
         result = predict(params, sweep)
     result = jax.device_get(result)
     return Run(config, sweep, method, iterations, seed, result, multi, time.perf_counter() - t0, fixed_pattern)
+
+
+def fixed_pattern_problem(config: Config, method: str) -> str | None:
+    """Why a sweep's fixed pattern (dark slopes drawn from the population) cannot act on ``method``
+    with ``config``, or ``None``: the draw is made per Monte Carlo run of one modulation frequency, so
+    the analytic and the multi-frequency runs would drop it while the file said it was on."""
+    if method != "mc":
+        return "needs the Monte Carlo (method 'mc'): the analytic sweep is the mean pixel's"
+    if len(config.modulation_frequencies_hz) > 1:
+        return ("needs one modulation frequency: the multi-frequency run draws no pattern "
+                f"({len(config.modulation_frequencies_hz)} configured)")
+    return None
 
 
 def multifrequency_columns(mf: MultiFrequencyResult) -> dict:

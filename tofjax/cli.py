@@ -1,5 +1,5 @@
-"""The ``tofjax`` command: ``simulate`` and ``config``, plus the subcommands other packages of the
-distribution register (``calibrate`` from ``fitting``, ``record`` from ``measurements``).
+"""The ``tofjax`` command: ``simulate`` and ``config``, plus the subcommands registered beside them
+(``render`` from :mod:`tofjax.render_cli`, ``calibrate`` and ``compare`` from ``fitting``, ``record`` from ``measurements``).
 
 Those register through the entry-point group ``tofjax.commands``: each entry point is a function
 ``register(subparsers)`` that adds its parser and sets ``run=handler`` (``handler(args) -> int``).
@@ -44,6 +44,17 @@ class CommandError(Exception):
 class _UsageError(CommandError):
     def __init__(self, message: str):
         super().__init__(message, 2)
+
+
+def require(module: str, extra: str, what: str):
+    """``module`` imported, or a :class:`CommandError` (exit 2) naming what needs it and the extra of
+    this distribution that installs it, e.g. ``--mcmc needs emcee: pip install "tofjax[fit]"``."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        raise CommandError(f'{what} needs {module}, which is not installed: pip install "tofjax[{extra}]"', 2) from None
 
 
 class _Parser(argparse.ArgumentParser):
@@ -188,9 +199,6 @@ def build_parser() -> argparse.ArgumentParser:
                      help="a public camera: " + "; ".join(f"{n}: {p.title}" for n, p in PRESETS.items()))
     cfg.add_argument("--out", type=Path, help="write to this file instead of standard output (its directory is made)")
     add_output_options(cfg)
-    from . import render_cli
-
-    render_cli.register(sub)
     for ep in sorted(entry_points(group="tofjax.commands"), key=lambda e: e.name):
         ep.load()(sub)
     return parser
@@ -255,7 +263,7 @@ def _simulate(args) -> int:
     import numpy as np
 
     from ._config import Config, load_config
-    from ._run import run_sweep, sweep_file_contents
+    from ._run import fixed_pattern_problem, run_sweep, sweep_file_contents
     from .progress import Progress, compiling, reporting
     from .sweepfile import write_sweep
 
@@ -268,6 +276,9 @@ def _simulate(args) -> int:
     params = config.params
     iterations = args.iterations or config.iterations
     freqs = config.modulation_frequencies_hz
+    problem = fixed_pattern_problem(config, args.method) if args.fixed_pattern else None
+    if problem:
+        raise _UsageError(f"--fixed-pattern {problem.replace('method ', '--method ')}")
     # Outputs before any work: a run must not end in "cannot write" after minutes.
     from .outputs import relative_inside
 

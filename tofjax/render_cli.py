@@ -13,7 +13,7 @@ from pathlib import Path
 
 
 def register(subparsers) -> None:
-    from .cli import add_output_options  # loaded already: cli registers this command
+    from .cli import add_output_options  # loaded already: cli loads this command's entry point
 
     p = subparsers.add_parser(
         "render", help="render full frames of a scene: depth, noise image, amplitude, point cloud",

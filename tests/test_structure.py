@@ -1,0 +1,61 @@
+"""The code's structure (docs/model.md, "Architecture"): the packages' imports form no cycle, point one
+way (fitting and measurements use tofjax; tofjax uses neither), and the siblings use tofjax's public
+surface only. Read from the sources (every import, also those inside functions and under
+``TYPE_CHECKING``), so nothing is imported and nothing compiled."""
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).parents[1]
+PACKAGES = ("tofjax", "fitting", "measurements")
+
+
+def _imports() -> dict[str, set[str]]:
+    """Module -> the modules of the three packages it imports (anywhere in its text)."""
+    found = {}
+    for pkg in PACKAGES:
+        for path in sorted((ROOT / pkg).glob("*.py")):
+            module = pkg if path.stem == "__init__" else f"{pkg}.{path.stem}"
+            names = set()
+            for node in ast.walk(ast.parse(path.read_text(), str(path))):
+                if isinstance(node, ast.ImportFrom):
+                    base = (pkg + (f".{node.module}" if node.module else "")) if node.level else node.module
+                    names.add(base)
+                    names.update(f"{base}.{a.name}" for a in node.names)
+                elif isinstance(node, ast.Import):
+                    names.update(a.name for a in node.names)
+            found[module] = names
+    return {m: {n for n in names if n in found and n != m} for m, names in found.items()}
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    state, stack, cycles = {}, [], []
+
+    def visit(u):
+        state[u] = "open"
+        stack.append(u)
+        for v in sorted(graph[u]):
+            if state.get(v) == "open":
+                cycles.append([*stack[stack.index(v):], v])
+            elif v not in state:
+                visit(v)
+        stack.pop()
+        state[u] = "done"
+
+    for u in sorted(graph):
+        if u not in state:
+            visit(u)
+    return cycles
+
+
+def test_the_modules_import_no_cycle_and_the_packages_point_one_way():
+    # The packages' __init__ only re-export names lazily (PEP 562): an edge into one is not a cycle.
+    graph = {m: {d for d in deps if d not in PACKAGES} for m, deps in _imports().items() if m not in PACKAGES}
+    assert _cycles(graph) == []
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == [["a", "b", "c", "a"]]  # the search finds one
+    for module, deps in _imports().items():
+        if module.startswith("tofjax"):
+            assert not {d.split(".")[0] for d in deps} - {"tofjax"}, module
+        else:  # a sibling: tofjax's public modules and names only
+            private = [d for d in deps if d.startswith("tofjax.") and d.split(".")[1].startswith("_")]
+            assert private == [], (module, private)
