@@ -236,11 +236,19 @@ def test_frames_sampled_in_several_chunks_are_the_kept_frames(params, one_ray, m
     prepared = tj.prepare_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(1.3, 0.9)))
     monkeypatch.setattr(_frame, "FRAME_CHUNK_ELEMENTS", 2 * ROWS * COLS * params.pixel.n_phases)
     sampled = prepared.sample(jax.random.key(1), 5)
-    kept = prepared.render(jax.random.key(1), 5, keep_frames=5)
+    kept = prepared.render(jax.random.key(1), 5, keep_frames=5, raw=True)
     valid = kept.result.valid.transpose(2, 0, 1)
     np.testing.assert_array_equal(sampled.valid, valid)
     np.testing.assert_allclose(sampled.radial_m, np.where(valid, kept.frames_radial_m, np.nan), rtol=1e-15, atol=0)
     np.testing.assert_allclose(sampled.amplitude_lsb, kept.result.amplitude_lsb.transpose(2, 0, 1), rtol=1e-15, atol=0)
+    # With their raw phase images (codes and both taps, (frames, phases, rows, cols)): the same frames,
+    # and the raw images render keeps.
+    raw = prepared.sample(jax.random.key(1), 5, raw=True)
+    np.testing.assert_array_equal(raw.radial_m, sampled.radial_m)
+    assert sampled.codes is None and raw.codes.shape == raw.tap_a_e.shape == (5, params.pixel.n_phases, ROWS, COLS)
+    np.testing.assert_array_equal(raw.codes, kept.result.codes.transpose(2, 3, 0, 1))
+    for tap, kept_tap in ((raw.tap_a_e, kept.result.frames_tap_a_e), (raw.tap_b_e, kept.result.frames_tap_b_e)):
+        np.testing.assert_allclose(tap, kept_tap.transpose(2, 3, 0, 1), rtol=1e-12)
     # tj.sample_frame in several chunks (the frames' constants made once from the exposure, then the
     # chunks drawn from them; one chunk makes them as it draws): the same frames.
     direct = tj.sample_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(1.3, 0.9)),
@@ -480,11 +488,27 @@ def test_render_command_writes_every_output(tmp_path, capsys):
     cfg.write_text(CONFIG)
     out = tmp_path / "out"
     code, stdout, stderr = _cli(capsys, "render", "--scene", "box_on_floor:box_m=1.5", "--config", str(cfg),
-                                "--frames", "20", "--keep-frames", "2", "--fixed-pattern", "--quiet", "--out", str(out))
+                                "--frames", "20", "--keep-frames", "2", "--fixed-pattern", "--raw", "--quiet",
+                                "--out", str(out))
     assert code == 0, stderr
     assert "21 x 31 pixels, 20 frames" in stdout
     data = np.load(out / "frame.npz")
     assert data["frames_radial_m"].shape == (2, ROWS, COLS)
+    # The raw phase images, decoded in NumPy with the formula of docs/model.md "Raw phase images"
+    # (and of raw_convention), are the kept frames: distance to 1e-9 m, amplitude to 1e-12.
+    assert data["raw_codes"].shape == data["raw_tap_a_e"].shape == (2, 1, 4, ROWS, COLS)
+    assert data["raw_codes"].dtype == np.int32 and data["raw_tap_b_e"].dtype == np.float32
+    d = data["raw_codes"][:, 0] - data["raw_mid_code"]  # (frames, phases, rows, cols)
+    re, im = np.tensordot(data["raw_phase_weights"], d, axes=(1, 1))
+    np.testing.assert_allclose(data["raw_phase_weights"], [np.cos(data["raw_phase_steps_rad"]),
+                                                           np.sin(data["raw_phase_steps_rad"])], atol=1e-15)
+    du = float(data["unambiguity_range_m"])
+    radial = np.mod(np.arctan2(im, re), 2 * np.pi) / (2 * np.pi) * du
+    error = np.mod(radial - data["frames_radial_m"] + du / 2, du) - du / 2  # a reading at the wrap: either end
+    assert np.max(np.abs(error)) < 1e-9
+    np.testing.assert_allclose(data["raw_amplitude_scale"] * np.hypot(re, im), data["frames_amplitude_lsb"],
+                               rtol=1e-12)
+    assert data["raw_modulation_frequencies_hz"].tolist() == [80.32e6] and "Decoding" in str(data["raw_convention"])
     assert data["predicted_std_m"].shape == (ROWS, COLS)
     good = int(np.sum(data["flags"] == 0))
     assert len(frameio.read_ply(out / "points.ply")) == good > 0

@@ -13,6 +13,7 @@ from tofjax import _rician
 from tofjax._chain import build_chain
 from tofjax._frames import draw_frames
 from tofjax._montecarlo import monte_carlo, pixel_dark_slopes, prepare
+from tofjax._noise import AFTER_LIMIT, BEFORE_LIMIT
 from tofjax._random import key_words
 
 
@@ -197,6 +198,52 @@ def test_one_draw_per_phase_image_is_the_three_draw_path():
     assert abs(np.corrcoef(np.asarray(fast)[0], np.asarray(full)[0])[0, 1]) < 0.03  # not the same draws
 
 
+def test_raw_taps_are_the_held_charges_plus_their_noise_and_digitise_to_the_codes():
+    """The raw phase images' taps (draw_frames(taps=True)), on both paths, against closed forms: at
+    1.2 m (no limit in reach) each tap reads its expected charge with the variance of every source
+    on it (before and after the limit); at 0.3 m SBI always holds the fuller tap of each phase image
+    at the full well, so it reads N_sat with only the noise after the limit, and the other
+    N_sat - |n_A - n_B| with the difference's noise before the limit and its own after it. Their difference digitises to the
+    frames' codes exactly, and the frames themselves do not change when the taps are asked for."""
+    p = tj.Params()
+    chain = build_chain(p)
+    sweep = tj.Sweep("distance", [0.3, 1.2])
+    charges = prepare(chain, sweep).charges
+    consts = prepare(chain, sweep).consts
+    assert np.all(np.asarray(consts.linear)) and np.asarray(consts.sbi_fixed).tolist() == [True, False]
+    var_a, var_b = (np.asarray(v) for v in chain.noise.variance_e2(charges, BEFORE_LIMIT))
+    post_a, post_b = (np.broadcast_to(np.asarray(v), var_a.shape) for v in chain.noise.variance_e2(charges, AFTER_LIMIT))
+    n_a, n_b, well = np.asarray(charges.a), np.asarray(charges.b), float(chain.limit.full_well_e)
+    assert np.all(np.abs(n_a[0] - n_b[0]) > 10 * np.sqrt(var_a[0] + var_b[0]))  # which tap is fuller: fixed
+    a_full = n_a[0] > n_b[0]
+    low, before = well - np.abs(n_a[0] - n_b[0]), var_a[0] + var_b[0]
+    expected_mean_a = np.stack([np.where(a_full, well, low), n_a[1]])
+    expected_mean_b = np.stack([np.where(a_full, low, well), n_b[1]])
+    expected_var_a = np.stack([post_a[0] + np.where(a_full, 0.0, before), var_a[1] + post_a[1]])
+    expected_var_b = np.stack([post_b[0] + np.where(a_full, before, 0.0), var_b[1] + post_b[1]])
+    words = key_words(jax.random.key(5))
+    frames = 40_000
+    for linear in (True, False):  # the one-draw and the three-draw paths
+        path = jnp.asarray([linear, linear])
+        f = draw_frames(chain, consts, words, jnp.uint32(0), frames, linear=path, taps=True)
+        plain = draw_frames(chain, consts, words, jnp.uint32(0), frames, linear=path)
+        np.testing.assert_array_equal(np.asarray(f.codes), np.asarray(plain.codes))
+        readout = chain.readout
+        np.testing.assert_array_equal(np.asarray(readout.quantize(readout.position(f.tap_a_e - f.tap_b_e))),
+                                      np.asarray(f.codes))
+        for taps, mean, var in ((f.tap_a_e, expected_mean_a, expected_var_a), (f.tap_b_e, expected_mean_b, expected_var_b)):
+            taps = np.moveaxis(np.asarray(taps), 0, 1)  # (points, phases, frames)
+            np.testing.assert_allclose(np.var(taps, axis=-1), var, rtol=0.04)  # 5.7 sigma of a variance of 40 000
+            np.testing.assert_allclose(np.mean(taps, axis=-1), mean, atol=float(5 * np.sqrt(np.max(var) / frames)))
+    # Through simulate(raw=True): the kept frames' taps beside their codes, the frames unchanged.
+    kept = tj.simulate(p, sweep, jax.random.key(5), 16, keep_frames=16, raw=True)
+    plain = tj.simulate(p, sweep, jax.random.key(5), 16, keep_frames=16)
+    assert plain.frames_tap_a_e is None and kept.frames_tap_a_e.shape == kept.codes.shape == (2, 16, 4)
+    np.testing.assert_array_equal(kept.codes, plain.codes)
+    difference = kept.frames_tap_a_e - kept.frames_tap_b_e
+    np.testing.assert_array_equal(chain.readout.quantize(chain.readout.position(difference)), kept.codes)
+
+
 def test_memory_is_bounded_for_long_runs():
     """1000 points x 20 000 frames compile to a program whose buffers stay below 100 MB (the chunks),
     and a point's statistics over many frames are what the analytic path says."""
@@ -218,6 +265,10 @@ def test_kept_frames_beyond_a_gibibyte_are_refused_before_any_work():
     sweep = tj.Sweep.linspace("distance", 0.5, 4.0, 1_000_000)
     with pytest.raises(ValueError, match=rf"keep_frames = 17 is out of range .* allowed 0 <= value <= {most} "):
         tj.simulate(tj.Params(), sweep, jax.random.key(0), 100, keep_frames=17)
+    # With their raw phase images (both taps beside the codes) a kept frame takes 64 bytes more per phase.
+    assert max_keep_frames(1_000_000, 4, raw=True) == (1 << 30) // (1_000_000 * (3 * 8 * 4 + 33)) == 8
+    with pytest.raises(ValueError, match=r"keep_frames = 9 is out of range .* allowed 0 <= value <= 8 "):
+        tj.simulate(tj.Params(), sweep, jax.random.key(0), 100, keep_frames=9, raw=True)
 
 
 def test_any_shape_of_operating_points():

@@ -12,6 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tofjax import sweepfile as sf
@@ -114,6 +115,7 @@ def test_every_readme_block_runs_as_written(tmp_path, monkeypatch, capsys):
     assert "strongly correlated" not in captured.out and "shorter than 50 autocorrelation times" not in captured.out
     for folder in ("render", "corner", "mine", "comparison", "calibration"):
         assert (tmp_path / folder / ".tofjax-output.json").is_file(), folder
+    assert np.load(tmp_path / "render" / "frame.npz")["raw_codes"].shape == (1, 1, 4, 172, 224)  # --raw
     assert sf.read_sweep(tmp_path / "virtual.csv").n_rows == 20
     assert not [p for p in os.listdir(tmp_path) if ".partial-" in p]
     _calibration_as_promised(tmp_path / "calibration", captured)

@@ -213,12 +213,12 @@ class PreparedCamera(eqx.Module):
         return FrameExposure(modulated, signal, background, self.chain.params.pixel.demodulation_contrast,
                              self.pattern.tap_asymmetry, self.dark_a_e, self.dark_b_e)
 
-    def sample(self, returns: Returns, key: PRNGKeyArray, frames: int = 1) -> NoisyFrames:
+    def sample(self, returns: Returns, key: PRNGKeyArray, frames: int = 1, *, raw: bool = False) -> NoisyFrames:
         """``frames`` noisy frames of a scene (:func:`sample_frame`): radial distance, amplitude and
-        validity, ``(frames, rows, cols)``."""
+        validity, ``(frames, rows, cols)``, and with ``raw`` their raw phase images."""
         returns = self._check(returns)
         check_counts(frames, frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS)
-        return _sample_charges(self.chain, self.expose(returns), key, frames, self.shape)
+        return _sample_charges(self.chain, self.expose(returns), key, frames, self.shape, raw)
 
     def noise_image(self, returns: Returns) -> Float[Array, "rows cols"]:
         """A scene's noise image (:func:`noise_image`): each pixel's analytic standard deviation of
@@ -244,11 +244,11 @@ class PreparedCamera(eqx.Module):
                              self.pattern, quality)
 
     def render(self, returns: Returns, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0,
-               progress: bool = False) -> FrameResult:
+               raw: bool = False, progress: bool = False) -> FrameResult:
         """Monte Carlo frames of a scene and their statistics (:func:`render_frame`)."""
         returns = self._check(returns)
-        check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS)
-        return self.prepare(returns).render(key, frames, keep_frames=keep_frames, progress=progress)
+        check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS, raw=raw)
+        return self.prepare(returns).render(key, frames, keep_frames=keep_frames, raw=raw, progress=progress)
 
     def _check(self, returns) -> Returns:
         """``returns`` for this camera: its type and shape, its values where traced
@@ -451,31 +451,34 @@ def prepare_frame(params: Params, settings: FrameSettings, returns: Returns, pat
 
 
 def render_frame(params: Params, settings: FrameSettings, returns: Returns, key: PRNGKeyArray, frames: int = 1, *,
-                 keep_frames: int = 0, pattern: PixelPattern | None = None, smooth: Smooth | None = None,
-                 progress: bool = False) -> FrameResult:
+                 keep_frames: int = 0, raw: bool = False, pattern: PixelPattern | None = None,
+                 smooth: Smooth | None = None, progress: bool = False) -> FrameResult:
     """Monte Carlo frames of a scene: ``frames`` noisy frames of every pixel through the chain
     (:func:`tofjax.simulate` per pixel, the same random-number streams and chunking); the result
     holds their per-pixel statistics (mean and standard deviation of the distance, amplitude,
     valid fraction) and the first ``keep_frames`` frames whole (``FrameResult.frames_radial_m``).
 
     Arguments as :func:`predict_frame`, plus ``key`` (a ``jax.random`` key; the same key gives the
-    same frames), ``frames`` and ``keep_frames`` (static) and ``progress``. Rendering the same
+    same frames), ``frames`` and ``keep_frames`` (static), ``raw`` (static: the kept frames carry
+    their raw phase images' taps too, ``result.frames_tap_a_e``/``frames_tap_b_e`` beside
+    ``result.codes``; docs/model.md "Raw phase images") and ``progress``. Rendering the same
     scene again (another key, more frames): :func:`prepare_frame` once, then its ``render``.
     """
     return prepare_camera(params, settings, pattern, smooth=smooth).render(
-        returns, key, frames, keep_frames=keep_frames, progress=progress)
+        returns, key, frames, keep_frames=keep_frames, raw=raw, progress=progress)
 
 
 def sample_frame(params: Params, settings: FrameSettings, returns: Returns, key: PRNGKeyArray, frames: int = 1, *,
-                 pattern: PixelPattern | None = None, smooth: Smooth | None = None) -> NoisyFrames:
+                 pattern: PixelPattern | None = None, smooth: Smooth | None = None, raw: bool = False) -> NoisyFrames:
     """Only noisy frames of a scene, exposed in the same call: ``frames`` frames' radial distance,
     amplitude and validity, ``(frames, rows, cols)`` (:class:`NoisyFrames`), without the per-pixel
     statistics of :func:`render_frame`. What a simulated camera streams when its scene changes every
     frame (:func:`prepare_camera` once and its ``sample`` skip the camera's own constants; for a
     static scene, :func:`prepare_frame` once and its ``sample`` skip the exposure too). Arguments as
     :func:`render_frame`; the frames are those ``prepare_frame(...).sample(key, frames)`` returns (and
-    :func:`render_frame` keeps) for the same key."""
-    return prepare_camera(params, settings, pattern, smooth=smooth).sample(returns, key, frames)
+    :func:`render_frame` keeps) for the same key. ``raw`` (static): the frames' raw phase images too
+    (:class:`NoisyFrames`; the same frames with or without them)."""
+    return prepare_camera(params, settings, pattern, smooth=smooth).sample(returns, key, frames, raw=raw)
 
 
 class PreparedFrame(eqx.Module):
@@ -496,15 +499,16 @@ class PreparedFrame(eqx.Module):
     def shape(self) -> tuple[int, int]:
         return tuple(self.radial_true_m.shape)
 
-    def render(self, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0, progress: bool = False) -> FrameResult:
+    def render(self, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0, raw: bool = False,
+               progress: bool = False) -> FrameResult:
         """``frames`` Monte Carlo frames (:func:`render_frame`, which is ``prepare_frame(...).render(...)``)."""
-        check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS)
+        check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS, raw=raw)
         if progress and not _jit.traced((self, key)):  # chunk by chunk from the host (tofjax.simulate's progress)
-            step = frames_step(self.chain, _key_words_jit(key))
+            step = frames_step(self.chain, _key_words_jit(key), raw=raw)
             sums, kept = drive_blocks(step, self.prepared.consts, math.prod(self.shape), frames, keep_frames,
                                       self.chain.n_phases, FRAME_CHUNK_ELEMENTS)
             return self._wrap(assemble_jit(self.chain, self.sweep, self.prepared, sums, kept, frames))
-        return self._wrap(_render_prepared(self, key, frames, keep_frames, progress))
+        return self._wrap(_render_prepared(self, key, frames, keep_frames, progress, raw))
 
     def predict(self) -> FrameResult:
         """The analytic frame, the noise image (:func:`predict_frame`)."""
@@ -516,11 +520,12 @@ class PreparedFrame(eqx.Module):
         else (about 4x faster than :meth:`predict` at 224 x 172, ``bench/bench_frame.py``)."""
         return _noise_image_prepared(self.chain, self.sweep, self.prepared.charges)
 
-    def sample(self, key: PRNGKeyArray, frames: int = 1) -> NoisyFrames:
+    def sample(self, key: PRNGKeyArray, frames: int = 1, *, raw: bool = False) -> NoisyFrames:
         """Only the frames: ``frames`` noisy frames' radial distance, amplitude and validity, without
-        the per-pixel statistics of :meth:`render` (the frames :meth:`render` keeps for the same key)."""
+        the per-pixel statistics of :meth:`render` (the frames :meth:`render` keeps for the same key);
+        with ``raw`` (static) their raw phase images too."""
         check_counts(frames, frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS)
-        return _sample_prepared(self.chain, self.prepared.consts, key, frames, self.shape)
+        return _sample_prepared(self.chain, self.prepared.consts, key, frames, self.shape, raw)
 
     def _wrap(self, result: Result) -> FrameResult:
         # Outside the programs: the geometry and the pattern are passed on, not copied by a program.
@@ -529,11 +534,17 @@ class PreparedFrame(eqx.Module):
 
 class NoisyFrames(eqx.Module):
     """Noisy frames (:meth:`PreparedFrame.sample`), ``(frames, rows, cols)``: ``radial_m`` (NaN
-    where the pixel or the ADC saturated), ``amplitude_lsb``, ``valid``."""
+    where the pixel or the ADC saturated), ``amplitude_lsb``, ``valid``; with ``raw=True`` the raw
+    phase images they were demodulated from, ``(frames, phases, rows, cols)``: ``codes`` (the ADC
+    codes of the taps' difference), ``tap_a_e`` and ``tap_b_e`` (each tap's electrons as read;
+    docs/model.md, "Raw phase images"), else ``None``."""
 
     radial_m: Float[Array, "frames rows cols"]
     amplitude_lsb: Float[Array, "frames rows cols"]
     valid: Array
+    codes: Float[Array, "frames phases rows cols"] | None = None
+    tap_a_e: Float[Array, "frames phases rows cols"] | None = None
+    tap_b_e: Float[Array, "frames phases rows cols"] | None = None
 
 
 # Programs: the camera, the exposure, and what reads it, each its own program: in one, XLA on a CPU
@@ -572,9 +583,9 @@ def _charges_and_constants(chain, radial_m, exposure: FrameExposure):
 
 
 @_jit.jit
-def _render_prepared(frame: PreparedFrame, key, frames, keep_frames, progress) -> Result:
+def _render_prepared(frame: PreparedFrame, key, frames, keep_frames, progress, raw=False) -> Result:
     chain, n = frame.chain, math.prod(frame.shape)
-    sums, kept = run_blocks(frames_step(chain, key_words(key)), frame.prepared.consts, n, frames, keep_frames,
+    sums, kept = run_blocks(frames_step(chain, key_words(key), raw=raw), frame.prepared.consts, n, frames, keep_frames,
                             chain.n_phases, FRAME_CHUNK_ELEMENTS, progress=progress)
     return assemble(chain, frame.sweep, frame.prepared, sums, kept, frames)
 
@@ -601,7 +612,7 @@ def _noise_image_prepared(chain, sweep, exposed) -> Array:
 
 
 @_jit.jit
-def _sample_prepared(chain, source, key, frames, shape) -> NoisyFrames:
+def _sample_prepared(chain, source, key, frames, shape, raw=False) -> NoisyFrames:
     # Frames first throughout (the frames :func:`run_blocks` keeps are points first): no transposes,
     # which cost more than the frames themselves (8 frames of 224 x 172: 19 of 35 ms). Chunks of
     # frames as in run_blocks, in a lax.map when there are several. ``source``: the pixels'
@@ -616,21 +627,23 @@ def _sample_prepared(chain, source, key, frames, shape) -> NoisyFrames:
         source = source.constants(chain)
 
     def one(first):
-        f = draw_frames(chain, source, words, first, chunk, frames_first=True)
+        f = draw_frames(chain, source, words, first, chunk, frames_first=True, taps=raw)
         valid = ~f.pixel_saturated & ~f.adc_saturated
-        return jnp.where(valid, jnp.mod(f.phase, 2.0 * jnp.pi) * to_m, jnp.nan), f.amplitude, valid
+        out = (jnp.where(valid, jnp.mod(f.phase, 2.0 * jnp.pi) * to_m, jnp.nan), f.amplitude, valid)
+        # The raw images (phases, frames, points) -> frames first, as the images.
+        return out + (tuple(jnp.moveaxis(x, 0, 1) for x in (f.codes, f.tap_a_e, f.tap_b_e)) if raw else ())
 
     if n_chunks == 1:
         out = one(jnp.uint32(0))
     else:
-        out = jax.tree_util.tree_map(lambda x: x.reshape((n_chunks * chunk, n))[:frames],
+        out = jax.tree_util.tree_map(lambda x: x.reshape((n_chunks * chunk,) + x.shape[2:])[:frames],
                                      jax.lax.map(one, chunk * jnp.arange(n_chunks, dtype=jnp.uint32)))
-    return NoisyFrames(*(x.reshape((frames, *shape)) for x in out))
+    return NoisyFrames(*(x.reshape((frames, *x.shape[1:-1], *shape)) for x in out))
 
 
 @_jit.jit
-def _sample_charges(chain, exposed, key, frames, shape) -> NoisyFrames:
-    return _sample_prepared(chain, _point_charges(chain, exposed), key, frames, shape)
+def _sample_charges(chain, exposed, key, frames, shape, raw=False) -> NoisyFrames:
+    return _sample_prepared(chain, _point_charges(chain, exposed), key, frames, shape, raw)
 
 
 def sharded_map(fn, batch, *, devices=None):

@@ -56,6 +56,7 @@ class PointConstants(eqx.Module):
     sd_a: Array  # before the limit, per tap
     sd_b: Array
     sd_after: Array  # after the limit, of the differential
+    sd_after_a: Array  # after the limit, of tap A (tap B's: the rest of sd_after); the raw taps need it
     sd_fast: Array  # everything, of the differential (linear points)
     linear: Array  # (points,) the one-draw path is exact
     sbi_fixed: Array  # (points,) the SBI flag of every frame of a linear point
@@ -115,6 +116,7 @@ def point_constants(chain: Chain, charges: TapCharges, index: Array, full_well_e
     t = lambda x: jnp.moveaxis(x, -1, 0)  # noqa: E731 - (points, phases) -> (phases, points)
     return PointConstants(
         n_a=t(n_a), n_b=t(n_b), sd_a=t(sd_a), sd_b=t(sd_b), sd_after=t(jnp.sqrt(post_a + post_b)),
+        sd_after_a=t(jnp.sqrt(jnp.broadcast_to(post_a, n_a.shape))),
         sd_fast=t(jnp.sqrt(var_a + var_b + post_a + post_b)), linear=jnp.all(linear, axis=-1),
         sbi_fixed=jnp.any(always, axis=-1), ref_phase=_depth.atan2(im, re),
         ref_amp=_depth.amplitude_scale(chain.n_phases) * jnp.sqrt(re * re + im * im), index=index,
@@ -123,7 +125,8 @@ def point_constants(chain: Chain, charges: TapCharges, index: Array, full_well_e
 
 
 class FrameBatch(eqx.Module):
-    """Frames of a block of points: codes ``(phases, points, frames)``; the rest ``(points, frames)``."""
+    """Frames of a block of points: codes ``(phases, points, frames)``; the rest ``(points, frames)``;
+    with ``taps``, each tap's electrons as read, ``(phases, points, frames)`` (:func:`draw_frames`)."""
 
     codes: Array
     phase: Array  # arg Z in (-pi, pi]
@@ -131,10 +134,13 @@ class FrameBatch(eqx.Module):
     pixel_saturated: Array
     adc_saturated: Array
     sbi_engaged: Array
+    tap_a_e: Array | None = None
+    tap_b_e: Array | None = None
 
 
 def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[Array, Array], first_frame: Array,
-                n_frames: int, stream=0, linear: Array | None = None, frames_first: bool = False) -> FrameBatch:
+                n_frames: int, stream=0, linear: Array | None = None, frames_first: bool = False,
+                taps: bool = False) -> FrameBatch:
     """Frames ``first_frame .. first_frame + n_frames - 1`` of every point of ``source`` (module
     docstring): its :class:`PointConstants`, or the :class:`PointCharges` they are made from inside
     the branch that draws. ``stream`` separates the random streams of several chains (one per
@@ -142,7 +148,20 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
     take the one-draw path (pass it from outside a ``vmap`` so that the choice of path stays a
     branch). ``frames_first`` (static): the batch's axes are ``(phases, frames, points)`` and
     ``(frames, points)`` instead of points first; the same numbers (the draws are keyed by frame and
-    point, not by position)."""
+    point, not by position).
+
+    ``taps`` (static): also each tap's electrons as read, A' = held A + E_A and B' = held B + E_B
+    (the held charge plus its own noise after the limit), of which the codes digitise the
+    difference A' - B' (the raw phase images' taps; docs/model.md, "Raw phase images"). They take
+    up to three more normals w1, w2, w3 per phase image from a stream of their own, so the frames
+    are the same with and without them. Each is a Gaussian conditional draw (for x, y jointly
+    Gaussian, x | y has mean m_x + C_xy / V_y (y - m_y) and variance V_x - C_xy^2 / V_y):
+    three-draw path, the differential's noise after the limit e = E_A - E_B splits as
+    E_A = e p_A / (p_A + p_B) + sqrt(p_A p_B / (p_A + p_B)) w3 (p: the taps' variances after the
+    limit); one-draw path (where the limit keeps the difference), the difference before the limit
+    d0 = A - B is drawn given the drawn D (w1), the taps' sum A + B given d0 (w2), the limit applied
+    to A = (sum + d0) / 2 and B = (sum - d0) / 2 (SBI removes their common mode), and e = D - d0
+    split as on the other path (w3). Exact in distribution on both paths."""
     limit, readout = _limit(chain, source.full_well_e, frames=True, frames_first=frames_first), chain.readout
     n_phases = chain.n_phases
     frame = first_frame + jnp.arange(n_frames, dtype=jnp.uint32)
@@ -155,12 +174,37 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
         col = lambda x: x[..., None]  # noqa: E731 - (phases, points) -> (phases, points, 1)
         per_point = lambda x: x[:, None]  # noqa: E731 - (points,) -> (points, 1)
 
+    def tap_normals():  # the raw taps' own stream (4 stream + 2): w1, w2, w3 per phase image
+        w = normals(key, frame, point, 4 * stream + 2, 3 * n_phases).astype(float)
+        return w[:n_phases], w[n_phases:2 * n_phases], w[2 * n_phases:]
+
+    def split_after(c, held_a, held_b, after, w3):
+        """The taps as read, from the held charges and the differential's noise after the limit."""
+        post_a = c.sd_after_a**2
+        post_b = c.sd_after**2 - post_a
+        total = _nonzero(post_a + post_b)
+        after_a = col(post_a / total) * after + col(jnp.sqrt(post_a * post_b / total)) * w3
+        return held_a + after_a, held_b + after_a - after
+
     def one_draw(src):
         c = src.constants(chain)
         z = normals(key, frame, point, 4 * stream, n_phases).astype(float)
-        diff = col(c.n_a - c.n_b) + col(c.sd_fast) * z
+        mean_diff = col(c.n_a - c.n_b)
+        diff = mean_diff + col(c.sd_fast) * z
         shape = diff.shape[1:]
-        return diff, jnp.zeros(shape, dtype=bool), jnp.broadcast_to(per_point(c.sbi_fixed), shape)
+        out = (diff, jnp.zeros(shape, dtype=bool), jnp.broadcast_to(per_point(c.sbi_fixed), shape))
+        if not taps:
+            return out
+        w1, w2, w3 = tap_normals()
+        var_a, var_b = c.sd_a**2, c.sd_b**2
+        before, total = _nonzero(var_a + var_b), _nonzero(c.sd_fast**2)
+        after_var = c.sd_after**2
+        d0 = mean_diff + col((var_a + var_b) / total) * (diff - mean_diff) \
+            + col(jnp.sqrt((var_a + var_b) * after_var / total)) * w1  # A - B before the limit, given D
+        s0 = col(c.n_a + c.n_b) + col((var_a - var_b) / before) * (d0 - mean_diff) \
+            + col(jnp.sqrt(4.0 * var_a * var_b / before)) * w2  # A + B, given A - B
+        held_a, held_b = limit(0.5 * (s0 + d0), 0.5 * (s0 - d0))
+        return (*out, *split_after(c, held_a, held_b, diff - d0, w3))
 
     def three_draws(src):
         c = src.constants(chain)
@@ -169,8 +213,12 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
         b = col(c.n_b) + col(c.sd_b) * z[n_phases:2 * n_phases]
         saturated, engaged = limit.flags(a, b)
         held_a, held_b = limit(a, b)
-        diff = held_a - held_b + col(c.sd_after) * z[2 * n_phases:]
-        return diff, jnp.any(saturated, axis=0), jnp.any(engaged, axis=0)
+        after = col(c.sd_after) * z[2 * n_phases:]
+        diff = held_a - held_b + after
+        out = (diff, jnp.any(saturated, axis=0), jnp.any(engaged, axis=0))
+        if not taps:
+            return out
+        return (*out, *split_after(c, held_a, held_b, after, tap_normals()[2]))
 
     linear = source.constants(chain).linear if linear is None else linear
 
@@ -179,14 +227,20 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
         return tuple(jnp.where(per_point(linear) if x.ndim == 2 else per_point(linear)[None], a, x)
                      for a, x in zip(fast, full, strict=True))
 
+    tap_a = tap_b = None
     if chain.noise.enabled:
-        diff, pixel_sat, sbi_on = lax.cond(jnp.all(linear), one_draw, each_its_own, source)
+        drawn = lax.cond(jnp.all(linear), one_draw, each_its_own, source)
+        diff, pixel_sat, sbi_on = drawn[:3]
+        if taps:
+            tap_a, tap_b = drawn[3:]
     else:
         c = source.constants(chain)
         held_a, held_b = limit(col(c.n_a), col(c.n_b))
         n_points = c.index.shape[0]
-        diff = jnp.broadcast_to(held_a - held_b, (n_phases, n_frames, n_points) if frames_first else
-                                (n_phases, n_points, n_frames))
+        full_shape = (n_phases, n_frames, n_points) if frames_first else (n_phases, n_points, n_frames)
+        diff = jnp.broadcast_to(held_a - held_b, full_shape)
+        if taps:
+            tap_a, tap_b = jnp.broadcast_to(held_a, full_shape), jnp.broadcast_to(held_b, full_shape)
         saturated, engaged = limit.flags(col(c.n_a), col(c.n_b))
         shape = diff.shape[1:]
         pixel_sat = jnp.broadcast_to(jnp.any(saturated, axis=0), shape)
@@ -195,7 +249,13 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
     codes = readout.quantize(u)
     re, im = _depth.phasor(codes - readout.mid_code)
     amplitude = _depth.amplitude_scale(n_phases) * jnp.sqrt(re * re + im * im)
-    return FrameBatch(codes, _depth.atan2(im, re), amplitude, pixel_sat, jnp.any(readout.saturated(u), axis=0), sbi_on)
+    return FrameBatch(codes, _depth.atan2(im, re), amplitude, pixel_sat, jnp.any(readout.saturated(u), axis=0), sbi_on,
+                      tap_a, tap_b)
+
+
+def _nonzero(x: Array) -> Array:
+    """``x`` where it is not 0, else 1: the denominator of a conditional draw whose numerator is then 0."""
+    return jnp.where(x != 0.0, x, 1.0)
 
 
 class Sums(eqx.Module):

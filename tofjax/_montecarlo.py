@@ -40,31 +40,32 @@ def pixel_dark_slopes(params: Params, key: PRNGKeyArray, pixels: tuple[int, ...]
 MAX_KEPT_BYTES = 1 << 30
 
 
-def kept_bytes_per_frame(n_phases: int) -> int:
-    """Bytes one kept frame of one operating point takes: codes (phases), phase, depth, unwrapped depth
-    and amplitude (float64 each) and the valid flag."""
-    return 8 * n_phases + 4 * 8 + 1
+def kept_bytes_per_frame(n_phases: int, raw: bool = False) -> int:
+    """Bytes one kept frame of one operating point takes: its codes (per phase), with ``raw`` both
+    taps too (the raw phase images), phase, depth, unwrapped depth and amplitude (float64 each) and
+    the valid flag."""
+    return (3 if raw else 1) * 8 * n_phases + 4 * 8 + 1
 
 
-def max_keep_frames(samples: int, n_phases: int) -> int:
+def max_keep_frames(samples: int, n_phases: int, raw: bool = False) -> int:
     """The most frames per point that fit :data:`MAX_KEPT_BYTES` for ``samples`` operating points."""
-    return MAX_KEPT_BYTES // (max(samples, 1) * kept_bytes_per_frame(n_phases))
+    return MAX_KEPT_BYTES // (max(samples, 1) * kept_bytes_per_frame(n_phases, raw))
 
 
 def check_counts(iterations, keep_frames, samples: int = 1, n_phases: int = 4,
-                 names: tuple[str, str] = ("iterations", "keep_frames")) -> None:
+                 names: tuple[str, str] = ("iterations", "keep_frames"), raw: bool = False) -> None:
     """Frames per point (>= 1) and frames to keep (0 .. iterations, and within :data:`MAX_KEPT_BYTES`
-    for ``samples`` points), as Python integers; refused before any work, naming the caller's
-    arguments (``names``: the frame functions say ``frames``)."""
+    for ``samples`` points, with ``raw`` their raw phase images), as Python integers; refused before
+    any work, naming the caller's arguments (``names``: the frame functions say ``frames``)."""
     many, kept = names
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise ValueError(f"{many} = {iterations!r} is out of range: allowed integer >= 1")
     if isinstance(keep_frames, bool) or not isinstance(keep_frames, int) or not 0 <= keep_frames <= iterations:
         raise ValueError(f"{kept} = {keep_frames!r} is out of range: allowed integer 0 <= value <= "
                          f"{many} = {iterations}")
-    most = max_keep_frames(samples, n_phases)
+    most = max_keep_frames(samples, n_phases, raw)
     if keep_frames > most:
-        size = keep_frames * samples * kept_bytes_per_frame(n_phases) / 2**30
+        size = keep_frames * samples * kept_bytes_per_frame(n_phases, raw) / 2**30
         raise ValueError(f"{kept} = {keep_frames} is out of range for {samples} operating points ({size:.1f} GiB of "
                          f"frames): allowed 0 <= value <= {most} (1 GiB); the statistics use every frame regardless")
 
@@ -86,7 +87,8 @@ def prepare(chain: Chain, sweep: Sweep, dark_slopes_v_per_s=None) -> Prepared:
 
 class FramesStep(eqx.Module):
     """The chunk step of :func:`tofjax._frames.run_blocks` for one chain: sums, and with ``record``
-    the frames as (codes ``(points, frames, phases)``, phase in [0, 2 pi), amplitude, valid). A
+    the frames as (codes ``(points, frames, phases)``, phase in [0, 2 pi), amplitude, valid, and
+    with ``raw`` the taps as read, ``(points, frames, phases)`` each: :func:`~tofjax._frames.draw_frames`). A
     pytree, so that the chunk programs of :func:`tofjax._frames.drive_blocks` take it as an argument.
 
     A chunk of fewer frames than points (a camera frame's pixels) whose frames are not kept is drawn
@@ -98,20 +100,24 @@ class FramesStep(eqx.Module):
     chain: Chain
     words: tuple[Array, Array]
     stream: int = eqx.field(static=True, default=0)
+    raw: bool = eqx.field(static=True, default=False)
 
     def __call__(self, c, first, n, counted, record):
         ff = n < c.index.shape[0] and not record
-        frames = draw_frames(self.chain, c, self.words, first, n, self.stream, frames_first=ff)
+        taps = record and self.raw
+        frames = draw_frames(self.chain, c, self.words, first, n, self.stream, frames_first=ff, taps=taps)
         sums, valid = reduce_frames(c, frames, counted[:, None] if ff else counted[None, :], frames_first=ff)
         if not record:
             return sums, None
         phase = jnp.mod(frames.phase, 2.0 * jnp.pi)
-        return sums, (jnp.moveaxis(frames.codes, 0, -1), phase, frames.amplitude, valid)
+        last = lambda x: jnp.moveaxis(x, 0, -1)  # noqa: E731 - (phases, points, frames) -> (points, frames, phases)
+        kept = (last(frames.codes), phase, frames.amplitude, valid)
+        return sums, kept + ((last(frames.tap_a_e), last(frames.tap_b_e)) if taps else ())
 
 
-def frames_step(chain: Chain, words, stream: int = 0) -> FramesStep:
-    """The chunk step of one chain (:class:`FramesStep`)."""
-    return FramesStep(chain, words, stream)
+def frames_step(chain: Chain, words, stream: int = 0, raw: bool = False) -> FramesStep:
+    """The chunk step of one chain (:class:`FramesStep`; ``raw``: its kept frames' taps too)."""
+    return FramesStep(chain, words, stream, raw)
 
 
 def assemble(chain: Chain, sweep: Sweep, prepared: Prepared, sums: Sums, kept, iterations: int) -> Result:
@@ -131,10 +137,11 @@ def assemble(chain: Chain, sweep: Sweep, prepared: Prepared, sums: Sums, kept, i
     readout = chain.readout
     breakdown = chain.noise.breakdown(charges, jnp.sqrt(readout.quantization_variance_lsb2) * readout.lsb_e)
     if kept is not None:
-        codes, phase, amplitude, valid = (points(x) for x in kept)
+        codes, phase, amplitude, valid, *taps = (points(x) for x in kept)
+        frames_tap_a, frames_tap_b = taps if taps else (None, None)
         unwrapped = unwrap_along_sweep(phase, valid) if len(shape) == 1 else jnp.where(valid, phase, jnp.nan)
         frames = dict(codes=codes, phase_rad=phase, depth_m=to_m * phase, depth_unwrapped_m=to_m * unwrapped,
-                      amplitude_lsb=amplitude, valid=valid)
+                      amplitude_lsb=amplitude, valid=valid, frames_tap_a_e=frames_tap_a, frames_tap_b_e=frames_tap_b)
     else:
         frames = dict(codes=None, phase_rad=None, depth_m=None, depth_unwrapped_m=None, amplitude_lsb=None, valid=None)
     return Result(
@@ -156,10 +163,10 @@ def assemble(chain: Chain, sweep: Sweep, prepared: Prepared, sums: Sums, kept, i
 
 def monte_carlo(chain: Chain, sweep: Sweep, key: PRNGKeyArray, iterations: int, keep_frames: int,
                 dark_slopes_v_per_s=None, chunking: tuple[int, int] = (CHUNK_ELEMENTS, BLOCK_POINTS),
-                progress: bool = False) -> Result:
+                progress: bool = False, raw: bool = False) -> Result:
     """:func:`simulate` on a built chain (``chunking``: phase images per chunk, points per block)."""
     prepared = prepare(chain, sweep, dark_slopes_v_per_s)
-    sums, kept = run_blocks(frames_step(chain, key_words(key)), prepared.consts, sweep.samples, iterations,
+    sums, kept = run_blocks(frames_step(chain, key_words(key), raw=raw), prepared.consts, sweep.samples, iterations,
                             keep_frames, chain.n_phases, *chunking, progress=progress)
     return assemble(chain, sweep, prepared, sums, kept, iterations)
 
@@ -173,6 +180,7 @@ def simulate(
     smooth: Smooth | None = None,
     fixed_pattern: bool = False,
     keep_frames: int = 0,
+    raw: bool = False,
     progress: bool = False,
 ) -> Result:
     """Monte Carlo simulation: ``iterations`` noisy frames at every operating point.
@@ -194,6 +202,9 @@ def simulate(
       pixel population (mean, sigma of ``pixel.dark_slope_*``) instead of taking the mean pixel.
     - ``keep_frames``: how many frames of each point to return whole (``codes``, ``phase_rad``,
       ``depth_m``, ...; static, 0 .. ``iterations``); the statistics always use every frame.
+    - ``raw``: the kept frames carry their whole raw phase images, both taps' electrons as read
+      (``frames_tap_a_e``, ``frames_tap_b_e``) beside the codes (static; the same frames either
+      way; docs/model.md, "Raw phase images").
     - ``progress``: report every chunk of frames to :mod:`tofjax.progress`: the chunks are run
       from the host, one compiled call each (the same numbers to rounding; programs that JAX's persistent
       compilation cache keeps), or under a transformation by a host callback per chunk in the
@@ -202,13 +213,13 @@ def simulate(
     **Returns:** a :class:`tofjax.Result` with ``method = "mc"``.
     """
     check_inputs(params, sweep)
-    check_counts(iterations, keep_frames, sweep.samples, params.pixel.n_phases)
+    check_counts(iterations, keep_frames, sweep.samples, params.pixel.n_phases, raw=raw)
     if progress and not _jit.traced((params, sweep, key, smooth)):
         # From the host, chunk by chunk: programs without host callbacks (tofjax._frames.drive_blocks).
-        chain, prepared, step = _setup_jit(params, sweep, key, smooth, fixed_pattern)
+        chain, prepared, step = _setup_jit(params, sweep, key, smooth, fixed_pattern, raw)
         sums, kept = drive_blocks(step, prepared.consts, sweep.samples, iterations, keep_frames, chain.n_phases)
         return assemble_jit(chain, sweep, prepared, sums, kept, iterations)
-    return _simulate(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames, progress)
+    return _simulate(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames, progress, raw)
 
 
 def _run_inputs(params, sweep, key, smooth, fixed_pattern):
@@ -218,17 +229,17 @@ def _run_inputs(params, sweep, key, smooth, fixed_pattern):
     return build_chain(params, smooth, sweep.samples), key, slopes
 
 
-def _setup(params, sweep, key, smooth, fixed_pattern):
+def _setup(params, sweep, key, smooth, fixed_pattern, raw=False):
     """What :func:`monte_carlo` runs its chunks with: the chain, the expected charges and frames'
     constants, and the chunk step."""
     chain, key, slopes = _run_inputs(params, sweep, key, smooth, fixed_pattern)
-    return chain, prepare(chain, sweep, slopes), frames_step(chain, key_words(key))
+    return chain, prepare(chain, sweep, slopes), frames_step(chain, key_words(key), raw=raw)
 
 
 @_jit.jit
-def _simulate(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames, progress) -> Result:
+def _simulate(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames, progress, raw=False) -> Result:
     chain, key, slopes = _run_inputs(params, sweep, key, smooth, fixed_pattern)
-    return monte_carlo(chain, sweep, key, iterations, keep_frames, slopes, progress=progress)
+    return monte_carlo(chain, sweep, key, iterations, keep_frames, slopes, progress=progress, raw=raw)
 
 
 _setup_jit = _jit.jit(_setup)

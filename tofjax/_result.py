@@ -82,8 +82,11 @@ class Result(eqx.Module):
     The expected (noise-free) chain: ``tap_a_e``/``tap_b_e`` electrons each tap holds after SBI
     and saturation, ``tap_a_v``/``tap_b_v`` their voltages, ``differential_v`` = V_B - V_A,
     ``code_mean`` the expected raw code (Monte Carlo: the mean over all frames). Per frame (Monte
-    Carlo with ``keep_frames``, else ``None``): raw ``codes``, ``phase_rad``, wrapped ``depth_m``,
-    ``depth_unwrapped_m`` (along a 1-D sweep), ``amplitude_lsb`` and ``valid``. Statistics: depth
+    Carlo with ``keep_frames``, else ``None``): the raw phase images, ``codes`` (the ADC codes of
+    the taps' difference) and ``frames_tap_a_e``/``frames_tap_b_e`` (each tap's electrons as read:
+    the held charge plus its own noise after the limit; docs/model.md "Raw phase images"), and what
+    demodulation makes of them: ``phase_rad``, wrapped ``depth_m``, ``depth_unwrapped_m`` (along a
+    1-D sweep), ``amplitude_lsb`` and ``valid``. Statistics: depth
     mean (wrapped and unwrapped) and standard deviation (circular), amplitude mean and standard
     deviation (LSB), SNR (Eq 5.1), and the fractions of frames that are valid, pixel-saturated,
     ADC-saturated and had SBI engaged, and ``full_well_fraction``: the expected charge of the
@@ -129,6 +132,8 @@ class Result(eqx.Module):
     sbi_active_fraction: Float[Array, "*b"]
     full_well_fraction: Float[Array, "*b"]
     caveats: Int[Array, "*b"] | None = None
+    frames_tap_a_e: Float[Array, "*b frames phases"] | None = None
+    frames_tap_b_e: Float[Array, "*b frames phases"] | None = None
 
     @property
     def relative_depth_std(self) -> Float[Array, "*b"]:

@@ -46,9 +46,58 @@ def frame_arrays(frame, predicted=None) -> dict[str, np.ndarray]:
     out["flag_names"] = np.array([f"{bit}: {text}" for bit, text in FLAGS.items()])
     if frame.frames_radial_m is not None:
         out["frames_radial_m"] = np.asarray(frame.frames_radial_m)
+        out["frames_amplitude_lsb"] = np.moveaxis(np.asarray(r.amplitude_lsb), -1, 0)
+        out["frames_valid"] = np.moveaxis(np.asarray(r.valid), -1, 0)
     if predicted is not None:
         out["predicted_std_m"] = np.asarray(predicted.depth_std_m)
     return out
+
+
+#: What ``raw_convention`` in frame.npz says (docs/model.md, "Raw phase images").
+RAW_CONVENTION = (
+    "raw_codes[k, f, j] is the ADC code of the taps' difference A - B in phase image j of kept frame k at "
+    "modulation frequency f (raw_mid_code: zero difference); raw_tap_a_e and raw_tap_b_e are the electrons each "
+    "tap holds as read (after SBI and saturation, with the noise after them). Tap A integrates while the reference "
+    "waveform, delayed by raw_phase_steps_rad[j], is high. Decoding: D = raw_codes - raw_mid_code, "
+    "Re Z = sum_j raw_phase_weights[0, j] D_j, Im Z = sum_j raw_phase_weights[1, j] D_j (cos and sin of the steps, "
+    "90-degree steps exact), radial distance = mod(arctan2(Im Z, Re Z), 2 pi) / (2 pi) * unambiguity_range_m, "
+    "amplitude = raw_amplitude_scale * |Z| (frames_radial_m, frames_amplitude_lsb)")
+
+
+def raw_arrays(frame, params) -> dict[str, np.ndarray]:
+    """The raw phase images of a frame's kept frames (``frame.result.codes`` and the taps: rendered
+    with ``raw=True``) in the
+    documented layout of frame.npz (docs/model.md, "Raw phase images"): ``raw_codes`` (int32 with
+    the hard ADC) and ``raw_tap_a_e``/``raw_tap_b_e`` (float32, electrons), each ``(frames,
+    frequencies, phases, rows, cols)``; ``raw_phase_steps_rad`` ``(phases,)`` and
+    ``raw_phase_weights`` ``(2, phases)`` (their cosines and sines, as the model demodulates),
+    ``raw_modulation_frequencies_hz`` ``(frequencies,)``, ``raw_mid_code``, ``raw_amplitude_scale``
+    and ``raw_convention`` (:data:`RAW_CONVENTION`). ``params``: the frame's camera."""
+    from ._adc import mid_code
+    from ._depth import amplitude_scale, phase_weights
+    from ._waveforms import phase_steps
+
+    r = frame.result
+    if r.frames_tap_a_e is None:
+        raise ValueError("the frame kept no raw phase images: render it with keep_frames >= 1 and raw=True")
+
+    def layout(x):  # (rows, cols, frames, phases) -> (frames, 1 frequency, phases, rows, cols)
+        return np.transpose(np.asarray(x), (2, 3, 0, 1))[:, None]
+
+    codes = layout(r.codes)
+    integral = np.all(np.isfinite(codes)) and np.array_equal(codes, np.round(codes))
+    n_phases = codes.shape[2]
+    return {
+        "raw_codes": codes.astype(np.int32) if integral else codes,
+        "raw_tap_a_e": layout(r.frames_tap_a_e).astype(np.float32),
+        "raw_tap_b_e": layout(r.frames_tap_b_e).astype(np.float32),
+        "raw_phase_steps_rad": np.asarray(phase_steps(n_phases), dtype=float),
+        "raw_phase_weights": np.stack(phase_weights(n_phases)),
+        "raw_modulation_frequencies_hz": np.array([float(params.illumination_waveform.modulation_frequency_hz)]),
+        "raw_mid_code": np.asarray(mid_code(params.adc)),
+        "raw_amplitude_scale": np.asarray(amplitude_scale(n_phases)),
+        "raw_convention": np.array(RAW_CONVENTION),
+    }
 
 
 def write_npz(path, arrays: dict[str, np.ndarray]) -> Path:

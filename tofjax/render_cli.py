@@ -31,6 +31,9 @@ def register(subparsers) -> None:
                    help=f"Monte Carlo frames (default 100; at most {_max_frames():.0e}, as pixel.iterations)")
     p.add_argument("--keep-frames", type=_non_negative_int, default=1,
                    help="frames to keep whole in frame.npz (default 1; at most --frames)")
+    p.add_argument("--raw", action="store_true",
+                   help="also write the kept frames' raw phase images into frame.npz: ADC codes and both taps' "
+                        "electrons per phase image (layout: docs/model.md, 'Raw phase images')")
     p.add_argument("--seed", type=_non_negative_int, default=0, help="random seed of the frames (default 0)")
     p.add_argument("--fixed-pattern", action="store_true",
                    help="draw the camera's pixel-to-pixel pattern from frame.seed and the [frame] sigmas "
@@ -230,6 +233,8 @@ def run(args) -> int:
     if args.keep_frames > args.frames:
         raise ValueError(f"--keep-frames = {args.keep_frames} is out of range: allowed 0 <= value <= --frames = "
                          f"{args.frames}")
+    if args.raw and args.keep_frames == 0:
+        raise ValueError("--raw writes the kept frames' raw phase images: it needs --keep-frames >= 1 (given 0)")
     check_output_dir(args.out, "--out", args)
     import jax
 
@@ -248,7 +253,7 @@ def run(args) -> int:
                          " is not supported by render (remove it, or sweep the centre pixel with tofjax simulate)")
     geometry = builder(**kwargs) if builder is not None else None
     npz_bytes = _check_size(name, geometry, settings, (rows, cols))
-    most = max_keep_frames(rows * cols, params.pixel.n_phases)
+    most = max_keep_frames(rows * cols, params.pixel.n_phases, args.raw)
     if args.keep_frames > most:
         raise ValueError(f"--keep-frames = {args.keep_frames} is out of range for {rows} x {cols} pixels: allowed 0 <= "
                          f"value <= {most} (kept frames take at most 1 GiB; the statistics use every frame)")
@@ -274,13 +279,15 @@ def run(args) -> int:
         scene = tj.prepare_frame(params, settings, returns, pattern)  # exposed once, for the frames and the analytic image
         with reporting(Progress(1, f"render: {args.frames} frames", unit="chunk", enabled=not args.quiet)):
             frame = jax.device_get(scene.render(jax.random.key(args.seed), args.frames,
-                                                keep_frames=args.keep_frames, progress=True))
+                                                keep_frames=args.keep_frames, raw=args.raw, progress=True))
         t2 = time.perf_counter()
         stage("the analytic noise image")
         predicted = jax.device_get(scene.predict())
         t3 = time.perf_counter()
         stage(f"writing {args.out}")
         arrays = frameio.frame_arrays(frame, predicted)
+        if args.raw:
+            arrays.update(frameio.raw_arrays(frame, params))
         source = str(args.config) if args.config else "built-in defaults"
         lines = [f"tofjax {tj.__version__}; configuration: {source}; scene {args.scene}; {rows} x {cols} pixels, "
                  f"{settings.subpixel_samples}^2 rays per pixel, {returns.path_m.shape[-1]} returns per pixel.",
