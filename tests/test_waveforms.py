@@ -53,6 +53,28 @@ def test_closed_form_coefficients_match_fft_of_samples(shape, duty):
     np.testing.assert_allclose(c, fft, atol=2e-5)
 
 
+def test_a_shape_is_one_class_found_by_its_name():
+    """Every shape the configuration offers is one class of tofjax._waveforms.SHAPES; a new one needs
+    only its values (the coefficients default to the FFT of a fine grid): cos^2(pi t), a sinusoid
+    of mean 1/2, has c_0 = 1/2, c_1 = 1/4 and nothing above."""
+    from tofjax._schema import WAVEFORM_SHAPES
+    from tofjax._waveforms import SHAPES, AbstractShape
+
+    assert tuple(SHAPES) == WAVEFORM_SHAPES and all(isinstance(s, AbstractShape) for s in SHAPES.values())
+
+    class SquaredCosine(AbstractShape):
+        name = "squared_cosine"
+
+        def values(self, u, duty, wave):
+            return jnp.cos(jnp.pi * u) ** 2
+
+    wave = ReferenceWaveform()
+    c = np.asarray(SquaredCosine().coefficients(jnp.arange(4.0), wave.duty_cycle, wave))
+    np.testing.assert_allclose(c, [0.5, 0.25, 0.0, 0.0], atol=1e-15)
+    with pytest.raises(ValueError, match="reference_waveform.shape = 'squared_cosine' is not allowed: expected one of"):
+        __import__("dataclasses").replace(wave, shape="squared_cosine")  # the configuration's choices: the schema's
+
+
 def test_sine_of_full_duty_is_a_pure_sinusoid():
     c = np.asarray(tofjax.fourier_coefficients(ReferenceWaveform(shape="sine", duty_cycle=1.0), n_harmonics=8))
     np.testing.assert_allclose(c, [0.5, 0.25, 0, 0, 0, 0, 0, 0, 0], atol=1e-15)

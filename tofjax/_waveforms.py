@@ -24,6 +24,7 @@ two smooth numeric shapes.
 from __future__ import annotations
 
 import functools
+from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -58,6 +59,119 @@ def _gauss_extended(u: Array, duty: Array, order: int) -> Array:
     return functools.reduce(jnp.add, images)
 
 
+class AbstractShape:
+    """One waveform shape: its values on one period and its Fourier coefficients. A new shape is
+    one subclass with its ``name`` (and the name in the schema's ``WAVEFORM_SHAPES``, the
+    configuration's choices; a test holds the two equal); :data:`SHAPES` finds it by name.
+
+    ``values(u, duty, wave)``: the waveform at times ``u`` in [-0.5, 0.5) periods, before any
+    normalisation; ``peak 1`` is each shape's own business. ``coefficients(k, duty, wave)``: c_k at
+    the harmonics ``k`` (float array), closed form where the shape has one; by default the FFT of
+    :data:`N_GRID` samples of the values (the numeric shapes)."""
+
+    name: ClassVar[str]
+
+    def values(self, u: Array, duty: Array, wave: AbstractWaveform) -> Array:
+        raise NotImplementedError
+
+    def coefficients(self, k: Array, duty: Array, wave: AbstractWaveform) -> Array:
+        n_harmonics = k.shape[0] - 1
+        if n_harmonics > N_GRID // 2:
+            raise ValueError(f"n_harmonics = {n_harmonics} exceeds the numeric grid: allowed <= {N_GRID // 2}")
+        t = jnp.arange(N_GRID, dtype=float) / N_GRID
+        return jnp.fft.rfft(self.values(_wrap(t), duty, wave))[: n_harmonics + 1] / N_GRID
+
+
+def _on(u: Array, duty: Array) -> Array:
+    """Inside the on-time |u| < D/2, or everywhere when D >= 1."""
+    return (jnp.abs(u) < 0.5 * duty) | (duty >= 1.0)
+
+
+class Pulse(AbstractShape):
+    """1 on the on-time, 0 elsewhere; c_k = D sinc(k D)."""
+
+    name: ClassVar[str] = "pulse"
+
+    def values(self, u, duty, wave):
+        return jnp.where(_on(u, duty), 1.0, 0.0)
+
+    def coefficients(self, k, duty, wave):
+        return duty * jnp.sinc(k * duty)
+
+
+class Sine(AbstractShape):
+    """A raised cosine 0.5 (1 + cos(2 pi t / D)) on the on-time (D = 1: the pure sinusoid)."""
+
+    name: ClassVar[str] = "sine"
+
+    def values(self, u, duty, wave):
+        return jnp.where(_on(u, duty), 0.5 * (1.0 + jnp.cos(2.0 * jnp.pi * u / duty)), 0.0)
+
+    def coefficients(self, k, duty, wave):
+        # 0.5 rect + 0.25 (rect shifted by +-1/D in frequency): a raised cosine of width D.
+        return 0.5 * duty * jnp.sinc(k * duty) + 0.25 * duty * (jnp.sinc(k * duty - 1.0) + jnp.sinc(k * duty + 1.0))
+
+
+class Triangle(AbstractShape):
+    """Rises linearly to 1 at t = 0 and back to 0 at the ends of the on-time."""
+
+    name: ClassVar[str] = "triangle"
+
+    def values(self, u, duty, wave):
+        return jnp.maximum(0.0, 1.0 - jnp.abs(u) / (0.5 * duty))
+
+    def coefficients(self, k, duty, wave):
+        return 0.5 * duty * jnp.sinc(0.5 * k * duty) ** 2
+
+
+class Sawtooth(AbstractShape):
+    """Rises linearly from 0 to 1 over the on-time, then drops to 0."""
+
+    name: ClassVar[str] = "sawtooth"
+
+    def values(self, u, duty, wave):
+        return jnp.where(jnp.abs(u) < 0.5 * duty, (u + 0.5 * duty) / duty, 0.0)
+
+    def coefficients(self, k, duty, wave):
+        # w = (t + D/2)/D on |t| < D/2: the odd part int t e^{-iat} dt = -2i (sin(ah)/a^2 - h cos(ah)/a).
+        h = 0.5 * duty
+        a = 2.0 * jnp.pi * jnp.where(k == 0, 1.0, k)
+        odd = ((jnp.sin(a * h) / a**2 - h * jnp.cos(a * h) / a) / duty).astype(complex) * -2j
+        return (0.5 * duty * jnp.sinc(k * duty)).astype(complex) + jnp.where(k == 0, 0j, odd)
+
+
+class GaussExtended(AbstractShape):
+    """Super-Gaussian exp(-ln 2 (2t/D)^(2 p)), p = ``gauss_order``, normalised to peak 1 (numeric)."""
+
+    name: ClassVar[str] = "gauss_extended"
+
+    def values(self, u, duty, wave):
+        peak = _gauss_extended(jnp.zeros(()), duty, wave.gauss_order)
+        return _gauss_extended(u, duty, wave.gauss_order) / peak
+
+
+class Fourier(AbstractShape):
+    """The pulse's Fourier series after ``fourier_order`` harmonics, absolute value, peak 1 (numeric)."""
+
+    name: ClassVar[str] = "fourier"
+
+    def values(self, u, duty, wave):
+        grid = jnp.arange(N_GRID, dtype=float) / N_GRID - 0.5
+        peak = jnp.max(jnp.abs(_fourier_series_of_pulse(grid, duty, wave.fourier_order)))
+        return jnp.abs(_fourier_series_of_pulse(u, duty, wave.fourier_order)) / peak
+
+
+#: The shapes by name (:class:`AbstractShape`).
+SHAPES: dict[str, AbstractShape] = {cls.name: cls() for cls in (Sine, Pulse, Fourier, GaussExtended, Sawtooth, Triangle)}
+
+
+def _shape(wave: AbstractWaveform) -> AbstractShape:
+    try:
+        return SHAPES[wave.shape]
+    except KeyError:
+        raise ValueError(f"waveform shape = {wave.shape!r} is not one of {', '.join(SHAPES)}") from None
+
+
 @eqx.filter_jit
 def waveform(wave: AbstractWaveform, t: Float[Array, "*t"]) -> Float[Array, "*t"]:
     """Evaluate a waveform at times ``t`` (in periods, any shape); peak 1, centred on t = 0.
@@ -69,27 +183,7 @@ def waveform(wave: AbstractWaveform, t: Float[Array, "*t"]) -> Float[Array, "*t"
 
     **Returns:** the waveform values, same shape as ``t``.
     """
-    u = _wrap(jnp.asarray(t, dtype=float))
-    d = wave.duty_cycle
-    half = 0.5 * d
-    inside = jnp.abs(u) < half
-    if wave.shape == "pulse":
-        return jnp.where(inside | (d >= 1.0), 1.0, 0.0)
-    if wave.shape == "sine":
-        return jnp.where(inside | (d >= 1.0), 0.5 * (1.0 + jnp.cos(2.0 * jnp.pi * u / d)), 0.0)
-    if wave.shape == "triangle":
-        return jnp.maximum(0.0, 1.0 - jnp.abs(u) / half)
-    if wave.shape == "sawtooth":
-        return jnp.where(inside, (u + half) / d, 0.0)
-    if wave.shape == "gauss_extended":
-        peak = _gauss_extended(jnp.zeros(()), d, wave.gauss_order)
-        return _gauss_extended(u, d, wave.gauss_order) / peak
-    if wave.shape == "fourier":
-        grid = jnp.arange(N_GRID, dtype=float) / N_GRID - 0.5
-        peak = jnp.max(jnp.abs(_fourier_series_of_pulse(grid, d, wave.fourier_order)))
-        return jnp.abs(_fourier_series_of_pulse(u, d, wave.fourier_order)) / peak
-    raise ValueError(f"waveform shape = {wave.shape!r} is not one of sine, pulse, fourier, gauss_extended, "
-                     "sawtooth, triangle")
+    return _shape(wave).values(_wrap(jnp.asarray(t, dtype=float)), wave.duty_cycle, wave)
 
 
 @eqx.filter_jit
@@ -100,30 +194,8 @@ def fourier_coefficients(
 
     c_0 is the waveform's mean over the period: the fraction of the peak power actually emitted.
     """
-    d = wave.duty_cycle
     k = jnp.arange(n_harmonics + 1, dtype=float)
-    if wave.shape == "pulse":
-        c = d * jnp.sinc(k * d)
-    elif wave.shape == "sine":
-        # 0.5 rect + 0.25 (rect shifted by +-1/D in frequency): a raised cosine of width D.
-        c = 0.5 * d * jnp.sinc(k * d) + 0.25 * d * (jnp.sinc(k * d - 1.0) + jnp.sinc(k * d + 1.0))
-    elif wave.shape == "triangle":
-        c = 0.5 * d * jnp.sinc(0.5 * k * d) ** 2
-    elif wave.shape == "sawtooth":
-        # w = (t + D/2)/D on |t| < D/2: the odd part int t e^{-iat} dt = -2i (sin(ah)/a^2 - h cos(ah)/a).
-        h = 0.5 * d
-        a = 2.0 * jnp.pi * jnp.where(k == 0, 1.0, k)
-        odd = ((jnp.sin(a * h) / a**2 - h * jnp.cos(a * h) / a) / d).astype(complex) * -2j
-        c = (0.5 * d * jnp.sinc(k * d)).astype(complex) + jnp.where(k == 0, 0j, odd)
-    elif wave.shape in ("gauss_extended", "fourier"):
-        if n_harmonics > N_GRID // 2:
-            raise ValueError(f"n_harmonics = {n_harmonics} exceeds the numeric grid: allowed <= {N_GRID // 2}")
-        t = jnp.arange(N_GRID, dtype=float) / N_GRID
-        c = jnp.fft.rfft(waveform(wave, t))[: n_harmonics + 1] / N_GRID
-    else:
-        raise ValueError(f"waveform shape = {wave.shape!r} is not one of sine, pulse, fourier, gauss_extended, "
-                         "sawtooth, triangle")
-    return jnp.asarray(c, dtype=complex)
+    return jnp.asarray(_shape(wave).coefficients(k, wave.duty_cycle, wave), dtype=complex)
 
 
 def waveform_mean(wave: AbstractWaveform) -> Float[Array, ""]:
