@@ -205,6 +205,9 @@ def test_rays_meet_the_nearest_surface_of_a_numpy_ray_caster():
     # Two surfaces at the same distance: the first primitive's.
     twins = SceneGeometry((Plane((0.0, 0.0, 1.0), (0.0, 0.0, 1.0), 0.3), Plane((0.0, 0.0, 1.0), (0.0, 0.0, 1.0), 0.8)))
     assert float(twins.cast(jnp.array([[0.0, 0.0, 1.0]])).reflectivity[0]) == 0.3
+    # A primitive is a subclass of AbstractPrimitive (its own intersect), nothing else.
+    with pytest.raises(TypeError, match=r"primitives\[1\] is a dict, not a primitive \(tofjax.scenes.Plane"):
+        SceneGeometry((box, {"intersect": None}))
 
 
 def test_the_pixel_field_in_closed_form_is_the_rays(params):

@@ -16,6 +16,8 @@ Lambertian reflectivity; a ray takes the nearest hit. Built-in scenes: :func:`wa
 
 from __future__ import annotations
 
+import abc
+
 import functools
 import inspect
 
@@ -206,7 +208,17 @@ def _inside(p, lo, hi):
     return inside
 
 
-class Plane(eqx.Module):
+class AbstractPrimitive(eqx.Module):
+    """A surface of a scene: a new kind is one subclass with :meth:`intersect` (its parameters as
+    fields, range-checked in ``__check_init__``); :class:`SceneGeometry` takes any of them."""
+
+    @abc.abstractmethod
+    def intersect(self, d: Float[Array, "*r 3"]) -> Hit:
+        """Where the rays ``d`` (unit directions from the lens centre) first meet this surface
+        (:class:`Hit`; ``t`` inf where they miss it), its normal facing them, its reflectivity."""
+
+
+class Plane(AbstractPrimitive):
     """The plane through ``point`` with ``normal``, clipped to the box ``[lo, hi]`` (per axis; inf =
     unbounded)."""
 
@@ -234,7 +246,7 @@ class Plane(eqx.Module):
         return Hit(jnp.where(ok, t, _INF), normal, jnp.broadcast_to(self.reflectivity, t.shape))
 
 
-class Sphere(eqx.Module):
+class Sphere(AbstractPrimitive):
     """A sphere of ``radius`` around ``centre``."""
 
     centre: Float[Array, "3"] = eqx.field(converter=_f64)
@@ -259,7 +271,7 @@ class Sphere(eqx.Module):
         return Hit(t, normal, jnp.broadcast_to(self.reflectivity, t.shape))
 
 
-class Box(eqx.Module):
+class Box(AbstractPrimitive):
     """An axis-aligned box ``[lo, hi]`` (slab method; the face the ray enters by)."""
 
     lo: Float[Array, "3"] = eqx.field(converter=_f64)
@@ -307,9 +319,18 @@ class SceneGeometry(eqx.Module):
     """A scene: ``primitives`` (the nearest hit counts), an optional ``patches`` set for two-bounce
     light (:func:`corner`), and its ``name``."""
 
-    primitives: tuple
+    primitives: tuple[AbstractPrimitive, ...]
     patches: Patches | None = None
     name: str = eqx.field(static=True, default="scene")
+
+    def __check_init__(self):
+        if not isinstance(self.primitives, tuple) or not self.primitives:
+            raise TypeError(f"tofjax.scenes.SceneGeometry: primitives must be a non-empty tuple of primitives, got "
+                            f"{type(self.primitives).__name__}")
+        for i, p in enumerate(self.primitives):
+            if not isinstance(p, AbstractPrimitive):
+                raise TypeError(f"tofjax.scenes.SceneGeometry: primitives[{i}] is a {type(p).__name__}, not a "
+                                "primitive (tofjax.scenes.Plane, Sphere, Box, or a subclass of AbstractPrimitive)")
 
     def cast(self, d: Float[Array, "*r 3"]) -> Hit:
         """The nearest hit of every ray ``d`` (unit directions from the lens centre); of equally near
