@@ -17,7 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 import tofjax as tj
 from tofjax.outputs import save_figure, write_text
-from tofjax.schema import get_leaf, render_toml
+from tofjax.schema import SWEEP_AXES, get_leaf, render_toml
 from tofjax.sweepfile import utc_now
 
 from ._compare import FileComparison, compare_measurements, write_comparison
@@ -29,11 +29,8 @@ from ._problem import Problem, batched_curves, build_problem, hard_observables
 if TYPE_CHECKING:  # emcee (and scipy through it) are imported only when a posterior is sampled
     from ._posterior import PosteriorResult
 
-_AXIS = {"distance": ("distance [m]", 1.0), "illuminance": ("background illuminance [lx]", 1.0),
-         "integration_time": ("integration time [ms]", 1e3)}
 _LABEL = {"amplitude_mean_lsb": "amplitude [LSB]", "depth_std_m": "depth noise [mm]"}
 _SCALE = {"amplitude_mean_lsb": 1.0, "depth_std_m": 1e3}
-_COLUMN = {"distance": "distance_m", "illuminance": "illuminance_lx", "integration_time": "integration_time_s"}
 
 
 @dataclasses.dataclass
@@ -298,7 +295,7 @@ def _bands(cal: Calibration):
     out = {}
     for group, centre, (lo, hi) in zip(problem.groups, lin.curves, limits, strict=True):
         for k, i in enumerate(group.files):
-            column = np.asarray(getattr(group.sweep, _COLUMN[cal.rows[i].sweep_variable]))[group.n_data:]
+            column = np.asarray(getattr(group.sweep, SWEEP_AXES[cal.rows[i].sweep_variable].column))[group.n_data:]
             out[i] = (column.reshape(len(group.files), -1)[k], np.asarray(centre)[k],
                       None if lo is None else lo[k], None if hi is None else hi[k])
     return out
@@ -310,7 +307,8 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
     written = []
     bands = _bands(cal)
     for i, rows in enumerate(cal.rows):
-        label, xs = _AXIS[rows.sweep_variable]
+        axis = SWEEP_AXES[rows.sweep_variable]
+        label, xs = axis.axis_label, axis.display_scale
         dense_x, centre, lo, hi = bands[i]
         x_all = np.asarray(rows.sweep.values) * xs
         fig = Figure(figsize=(11, 4.2), layout="constrained")
@@ -349,7 +347,8 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
     axes = fig.subplots(len(cal.rows), 1, squeeze=False)
     for i, rows in enumerate(cal.rows):
         ax = axes[i, 0]
-        label, xs = _AXIS[rows.sweep_variable]
+        axis = SWEEP_AXES[rows.sweep_variable]
+        label, xs = axis.axis_label, axis.display_scale
         for k, name in enumerate(OBSERVABLES):
             idx = rows.used(name)
             model, sigma = (np.asarray(a)[idx] for a in evaluated[i][k])

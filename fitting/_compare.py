@@ -35,15 +35,13 @@ from pathlib import Path
 import numpy as np
 import tofjax as tj
 from tofjax.outputs import atomic_path, write_bytes, write_text
+from tofjax.schema import OPERATING_POINT_COLUMNS, SWEEP_AXES
 
 from ._data import Measurement, read_measurement
 from ._problem import DENSE_POINTS, dense_sweep, hard_observables
 
 #: Ratios within this factor of 1 count as agreeing in the summaries (30 %).
 AGREEMENT = 0.3
-_SCALE = {"distance": ("distance [m]", 1.0), "illuminance": ("background illuminance [lx]", 1.0),
-          "integration_time": ("integration time per phase image [ms]", 1e3)}
-_COLUMN = {"distance": "distance_m", "illuminance": "illuminance_lx", "integration_time": "integration_time_s"}
 _QUANTITIES = ("depth_mean_m", "depth_std_m", "amplitude_mean_lsb", "amplitude_std_lsb")
 
 
@@ -94,7 +92,7 @@ def _rows_and_dense(m: Measurement, dense: dict[str, np.ndarray]) -> tj.Sweep:
     """The file's rows, then the dense points: one call (which pads them to its bucket, so files of
     similar length share its program)."""
     return tj.Sweep.points("distance", **{name: np.concatenate([np.asarray(getattr(m.sweep, name)), dense[name]])
-                                          for name in ("distance_m", "illuminance_lx", "integration_time_s")})
+                                          for name in OPERATING_POINT_COLUMNS})
 
 
 def _nearest_period(depth: np.ndarray, truth: np.ndarray, period: float) -> np.ndarray:
@@ -146,7 +144,7 @@ def compare_measurement(m: Measurement) -> FileComparison:
             f.append("measured: wrapped")
         flags.append(f)
     scale = np.asarray(m.sweep.values)
-    dense_x = dense[_COLUMN[m.data.sweep]]
+    dense_x = dense[SWEEP_AXES[m.data.sweep].column]
     return FileComparison(
         path=m.path, sweep_variable=m.data.sweep, x=scale, lines=np.asarray(m.data.lines), distance_m=truth,
         frequencies_hz=tuple(m.frequencies_hz), fusion=m.fusion, range_m=period, measured=measured, model=model,
@@ -235,7 +233,8 @@ def figure(c: FileComparison, title: str = ""):
     """The six panels of one file (module docstring) as a matplotlib Figure."""
     from matplotlib.figure import Figure
 
-    label, xs = _SCALE[c.sweep_variable]
+    axis = SWEEP_AXES[c.sweep_variable]
+    label, xs = axis.axis_label, axis.display_scale
     x, dx = c.x * xs, c.dense_x * xs
     flagged = np.array([bool(f) for f in c.flags])
     fig = Figure(figsize=(13, 7.2))

@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 import tofjax as tj
 from tofjax import sweepfile as sf
-from tofjax.schema import KEY_BY_DOTTED, coerce
+from tofjax.schema import KEY_BY_DOTTED, OPERATING_POINT_COLUMNS, SWEEP_AXES, coerce
 
 from ._parameters import CalibrationInputError
 
@@ -83,7 +83,7 @@ def _overrides(path: str, metadata: dict[str, str], config: tj.Config) -> tj.Con
         if key not in KEY_BY_DOTTED:
             continue
         spec = KEY_BY_DOTTED[key]
-        if spec.dotted in ("scene.distance_m", "scene.illuminance_lx", "scene.integration_time_s"):
+        if spec.dotted in (axis.key for axis in SWEEP_AXES.values()):  # the file's rows set the operating point
             continue
         value: object = text
         if spec.kind in ("float", "int"):
@@ -152,13 +152,13 @@ def read_measurement(path: str | Path, config: tj.Config) -> Measurement:
     per = data.integration_time_per
     if per != "phase_image":  # the model's unit is one phase image
         cols["integration_time_s"] = tj.phase_image_time_s(cols["integration_time_s"], per, data.n_phases, len(f_file))
-    for name in ("distance_m", "illuminance_lx", "integration_time_s"):
+    for name in OPERATING_POINT_COLUMNS:
         empty = np.isnan(cols[name])
         if np.any(empty):
             i = int(np.argmax(empty))
             raise CalibrationInputError(f"{path}:{data.lines[i]}: column {name} (field {data.fields[name]}) is empty: "
                                         "every row needs its operating point")
-    sweep = tj.Sweep.points(data.sweep, cols["distance_m"], cols["illuminance_lx"], cols["integration_time_s"])
+    sweep = tj.Sweep.points(data.sweep, **{name: cols[name] for name in OPERATING_POINT_COLUMNS})
     fusion = meta.get("frequency_fusion", config.values["illumination_waveform"]["frequency_fusion"])
     return Measurement(path, data, cols, file_config, sweep, tuple(f_file), fusion)
 

@@ -31,14 +31,13 @@ import jax.numpy as jnp
 import numpy as np
 import tofjax as tj
 from jaxtyping import Array, Float
-from tofjax.schema import set_leaves
+from tofjax.schema import OPERATING_POINT_COLUMNS, set_leaves
 
 from ._data import OBSERVABLES, SweepRows
 from ._parameters import FreeParameter
 
 #: Points of the dense model curve per file (the figures).
 DENSE_POINTS = 160
-_OPERATING_POINT = ("distance_m", "illuminance_lx", "integration_time_s")
 
 
 def dense_sweep(s: tj.Sweep, n: int = DENSE_POINTS) -> dict[str, np.ndarray]:
@@ -47,7 +46,7 @@ def dense_sweep(s: tj.Sweep, n: int = DENSE_POINTS) -> dict[str, np.ndarray]:
     order = np.argsort(np.asarray(s.values))
     x = np.asarray(s.values)[order]
     grid = np.linspace(x[0], x[-1], n)
-    return {name: np.interp(grid, x, np.asarray(getattr(s, name))[order]) for name in _OPERATING_POINT}
+    return {name: np.interp(grid, x, np.asarray(getattr(s, name))[order]) for name in OPERATING_POINT_COLUMNS}
 
 
 class Observables(eqx.Module):
@@ -97,7 +96,7 @@ def hard_observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[f
     n = sweep.samples
     extra = -n % HARD_BUCKET
     pad = lambda x: np.concatenate([np.asarray(x), np.repeat(np.asarray(x)[-1:], extra)])  # noqa: E731
-    padded = tj.Sweep.points(sweep.variable, *(pad(getattr(sweep, name)) for name in _OPERATING_POINT))
+    padded = tj.Sweep.points(sweep.variable, *(pad(getattr(sweep, name)) for name in OPERATING_POINT_COLUMNS))
     obs = jax.device_get(_hard_observables(params, padded, frequencies_hz, fusion))
     return jax.tree_util.tree_map(lambda x: x[:n], obs)
 
@@ -136,7 +135,7 @@ class FileGroup(eqx.Module):
         """The operating points the model runs at: the files' own, each file's illuminance in lux
         of the group's lamp (module docstring); the data rows, and with ``dense`` the dense points."""
         n = self.sweep.samples if dense else self.n_data
-        d, e, t = (getattr(self.sweep, name)[:n] for name in _OPERATING_POINT)
+        d, e, t = (getattr(self.sweep, name)[:n] for name in OPERATING_POINT_COLUMNS)
         return tj.Sweep.points("distance", d, e * self.lamp_scale[:n], t)
 
 
@@ -192,7 +191,7 @@ def _groups(rows: list[SweepRows], merge_lamps: bool = True) -> tuple[FileGroup,
         cat = lambda xs: jnp.asarray(np.concatenate([np.asarray(x) for x in xs]))  # noqa: E731
         dense = [dense_sweep(rows[i].sweep) for i in group]
         columns = {name: cat([getattr(rows[i].sweep, name) for i in group] + [d[name] for d in dense])
-                   for name in _OPERATING_POINT}
+                   for name in OPERATING_POINT_COLUMNS}
         scales = [np.full(rows[i].n_rows, k) for i, k in joined] + [np.full(DENSE_POINTS, k) for _, k in joined]
         ends = np.cumsum([rows[i].n_rows for i in group])
         groups.append(FileGroup(

@@ -26,10 +26,10 @@ import tofjax as tj
 from tofjax import stats
 from tofjax import sweepfile as sf
 from tofjax.outputs import write_npz
+from tofjax.schema import OPERATING_POINT_COLUMNS, SWEEPS
 
 from ._interfaces import Frames, StageLimitError
 
-SWEEPS = ("distance", "integration_time", "illuminance")
 EXTRA_COLUMNS = ("stage_position_m", "requested_value", "elapsed_s")
 GRAY_COLUMNS = ("gray_value_mean", "gray_value_std")
 
@@ -188,7 +188,7 @@ def run_campaign(settings: CampaignSettings, *, stage, camera, lux, out: str | P
             if settings.raw_dir is not None:
                 write_npz(Path(settings.raw_dir) / f"point_{i:04d}.npz",
                           {"depth_m": frames.depth_m, "amplitude_lsb": frames.amplitude_lsb, "valid": frames.valid,
-                           **{k: row[k] for k in ("distance_m", "integration_time_s", "illuminance_lx")}},
+                           **{k: row[k] for k in OPERATING_POINT_COLUMNS}},
                           compressed=False)
             if gray:  # a gray value is not the model's amplitude: its own columns (module docstring)
                 row["gray_value_mean"], row["gray_value_std"] = row.pop("amplitude_mean_lsb"), row.pop(

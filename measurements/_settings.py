@@ -15,13 +15,10 @@ import math
 from pathlib import Path
 from typing import Any
 
-from tofjax.schema import KEY_BY_DOTTED, in_range, suggest
+from tofjax.schema import KEY_BY_DOTTED, SWEEP_AXES, in_range, suggest
 
 from . import _registry as reg
 
-#: The swept quantity -> the configuration key whose range its values must respect.
-SWEEP_KEYS = {"distance": "scene.distance_m", "integration_time": "scene.integration_time_s",
-              "illuminance": "scene.illuminance_lx"}
 #: Frames x ROI pixels per point the virtual camera renders in memory at once (about 100 bytes each
 #: with the kept frames of the Monte Carlo: 0.4 GB).
 MAX_SAMPLES_PER_POINT = 2**22
@@ -79,7 +76,7 @@ def _opt(key, flag, kind, help, default=None, **kw) -> Option:
 
 OPTIONS: tuple[Option, ...] = (
     _opt("config", "--config", "path", "camera model configuration (TOML) of the virtual camera"),
-    _opt("sweep", "--sweep", "choice", "the swept quantity", choices=tuple(SWEEP_KEYS)),
+    _opt("sweep", "--sweep", "choice", "the swept quantity", choices=tuple(SWEEP_AXES)),
     _opt("start", "--from", "float", "first point (m, s or lx; within the swept quantity's range)"),
     _opt("stop", "--to", "float", "last point (m, s or lx)"),
     _opt("samples", "--samples", "int", "number of points", lo=1, hi=1_000_000),
@@ -270,7 +267,7 @@ def check(plan: Plan) -> None:
     """The checks across settings, all before anything moves: the sweep's range, its order, every
     stage position within the travel, the memory of one point."""
     sweep = plan["sweep"]
-    key = KEY_BY_DOTTED[SWEEP_KEYS[sweep]]
+    key = KEY_BY_DOTTED[SWEEP_AXES[sweep].key]
     for name in ("start", "stop"):
         x = plan[name]
         if not in_range(key, x):

@@ -35,7 +35,9 @@ def register(subparsers) -> None:
 
 
 def _describe(plan, points) -> str:
-    unit = {"distance": "m", "integration_time": "s", "illuminance": "lx"}[plan["sweep"]]
+    from tofjax.schema import SWEEP_AXES
+
+    unit = SWEEP_AXES[plan["sweep"]].unit
     w, h = plan["roi"]
     return (f"plan: {plan['samples']} points of a {plan['sweep']} sweep, {points[0]:g} .. {points[-1]:g} {unit}; "
             f"{plan['frames']} frames of a {w}x{h} ROI each; stage {plan['stage']} (travel {plan['travel'][0]:g},"

@@ -183,8 +183,8 @@ def test_plot_choices_and_range_fields_follow_the_sweep(variable):
     assert enabled == plots.applicable(variable) == ex.selected_plots()
     if variable != "distance":
         assert ex.plot_checkboxes["wiggling"].disabled and "wiggling" not in ex.selected_plots()
-    for name, (lo, hi) in tj._config.SWEEP_RANGE_KEYS.items():
-        for key in (lo, hi):
+    for name, axis in tj.schema.SWEEP_AXES.items():
+        for key in axis.range_keys:
             shown = ex.fields[f"scene.{key}"].box.layout.display is None
             assert shown == (name == variable)
 

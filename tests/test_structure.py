@@ -59,3 +59,26 @@ def test_the_modules_import_no_cycle_and_the_packages_point_one_way():
         else:  # a sibling: tofjax's public modules and names only
             private = [d for d in deps if d.startswith("tofjax.") and d.split(".")[1].startswith("_")]
             assert private == [], (module, private)
+
+
+def test_the_sweep_axes_are_one_table_that_agrees_with_the_schema():
+    """tofjax.schema.SWEEP_AXES is the only table of the sweep axes (no module maps the sweep names
+    to keys, columns, units or labels of its own), and its keys, ranges and units are the schema's."""
+    import re
+
+    from tofjax.schema import KEY_BY_DOTTED, OPERATING_POINT_COLUMNS, SWEEP_AXES, SWEEPS
+
+    # A dict entry ("distance": ...) or a tuple of the names; not a comparison (sweep == "distance":).
+    table = re.compile(r'(^|[{,])\s*"(distance|illuminance|integration_time)"\s*:|\("distance", "illuminance"', re.M)
+    for pkg in PACKAGES:
+        for path in sorted((ROOT / pkg).glob("*.py")):
+            if path.name != "_schema.py":
+                assert not table.search(path.read_text()), f"{path.relative_to(ROOT)} writes a sweep-axis table"
+    assert SWEEPS == ("distance", "illuminance", "integration_time")
+    assert OPERATING_POINT_COLUMNS == ("distance_m", "illuminance_lx", "integration_time_s")
+    for name, axis in SWEEP_AXES.items():
+        assert axis.name == name and KEY_BY_DOTTED[axis.key].unit == axis.unit
+        for bound in axis.range_keys:
+            assert KEY_BY_DOTTED[f"scene.{bound}"].unit == axis.unit
+        assert axis.axis_label.endswith(f"[{axis.display_unit}]")
+    assert SWEEP_AXES["integration_time"].display_scale == 1e3 and SWEEP_AXES["integration_time"].display_unit == "ms"

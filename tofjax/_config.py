@@ -17,15 +17,8 @@ from typing import Any
 
 from ._exposure import phase_images_per_count
 from ._params import SECTION_CLASSES, Params
-from ._schema import SECTIONS, ConfigError, defaults, keys_of, suggest, validate
+from ._schema import SECTIONS, SWEEP_AXES, SWEEPS, ConfigError, defaults, keys_of, suggest, validate
 from ._sweep import Sweep
-
-#: Sweep name -> (scene key of the start, scene key of the end).
-SWEEP_RANGE_KEYS = {
-    "distance": ("distance_from_m", "distance_to_m"),
-    "illuminance": ("illuminance_from_lx", "illuminance_to_lx"),
-    "integration_time": ("integration_time_from_s", "integration_time_to_s"),
-}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,10 +76,10 @@ class Config:
     def sweep(self, variable: str, start: float | None = None, stop: float | None = None,
               samples: int | None = None) -> Sweep:
         """The sweep over ``variable`` with the configured range and samples unless overridden."""
-        if variable not in SWEEP_RANGE_KEYS:
+        if variable not in SWEEP_AXES:
             raise ValueError(f"sweep = {variable!r} is not allowed: expected one of "
-                             + ", ".join(repr(s) for s in SWEEP_RANGE_KEYS) + suggest(variable, SWEEP_RANGE_KEYS))
-        lo_key, hi_key = SWEEP_RANGE_KEYS[variable]
+                             + ", ".join(repr(s) for s in SWEEPS) + suggest(variable, SWEEPS))
+        lo_key, hi_key = SWEEP_AXES[variable].range_keys
         scene = self.values["scene"]
         start = scene[lo_key] if start is None else start
         stop = scene[hi_key] if stop is None else stop

@@ -45,23 +45,24 @@ except ImportError as err:  # pragma: no cover - exercised only without the extr
 
 from . import plots
 from . import progress as _progress
-from ._config import SWEEP_RANGE_KEYS, Config, config_from_dict, load_config
+from ._config import Config, config_from_dict, load_config
 from ._optics import lens, spot_area_m2
 from ._params import PhysicalConstants
 from ._run import run_sweep, sweep_file_contents
-from ._schema import KEYS, ConfigError, Key, keys_of
+from ._schema import KEYS, SWEEP_AXES, ConfigError, Key, keys_of
 from .outputs import OutputDir, OutputError, check_output, save_figure, write_text
 
 #: Sweep choices as the thesis' GUI names them (§4.3).
-SWEEP_CHOICES = (("Distance", "distance"), ("Background light", "illuminance"),
-                 ("Integration time", "integration_time"))
+SWEEP_CHOICES = tuple((axis.title, name) for name, axis in SWEEP_AXES.items())
+#: The configured sweeps' ranges, per sweep: ``scene.<start key>``, ``scene.<end key>``.
+_RANGE_KEYS = {name: tuple(f"scene.{k}" for k in axis.range_keys) for name, axis in SWEEP_AXES.items()}
 #: Plots ticked when the explorer opens.
 DEFAULT_PLOTS = ("depth_noise", "amplitude", "photon_transfer_curve")
 
 #: The operating point the sweeps vary one quantity of (thesis Fig 4.8: on the Main tab).
-_NOMINAL_KEYS = ("scene.distance_m", "scene.illuminance_lx", "scene.integration_time_s")
+_NOMINAL_KEYS = tuple(axis.key for axis in SWEEP_AXES.values())
 _MAIN_KEYS = ("scene.background", *_NOMINAL_KEYS, "scene.samples", "pixel.iterations",
-              *(f"scene.{k}" for pair in SWEEP_RANGE_KEYS.values() for k in pair))
+              *(k for pair in _RANGE_KEYS.values() for k in pair))
 _TAB_SECTIONS = {
     "Pixel": ("pixel", "illumination_waveform", "reference_waveform"),
     "Scene & Camera": ("illumination", "scene", "camera", "frame"),
@@ -393,7 +394,7 @@ class Explorer:
     def _main_tab(self):
         settings = w.VBox([
             *self._rows(["scene.background", *_NOMINAL_KEYS]), self.sweep,
-            *self._rows(f"scene.{k}" for pair in SWEEP_RANGE_KEYS.values() for k in pair),
+            *self._rows(k for pair in _RANGE_KEYS.values() for k in pair),
             *self._rows(["scene.samples", "pixel.iterations"]), self.method, self.seed,
         ])
         choice = w.VBox([w.HTML("<b>Plots to generate</b> (Table 4.9)"), *self.plot_checkboxes.values()],
@@ -493,9 +494,9 @@ class Explorer:
 
     def _sweep_changed(self) -> None:
         variable = self.sweep.value
-        for name, pair in SWEEP_RANGE_KEYS.items():
+        for name, pair in _RANGE_KEYS.items():
             for k in pair:
-                self.fields[f"scene.{k}"].box.layout.display = None if name == variable else "none"
+                self.fields[k].box.layout.display = None if name == variable else "none"
         allowed = plots.applicable(variable)
         for name, box in self.plot_checkboxes.items():
             box.disabled = name not in allowed

@@ -25,7 +25,55 @@ BACKGROUNDS = ("sunlight", "halogen", "incandescent", "fluorescent", "led")
 EXPOSURE_DEFINITIONS = ("phase_image", "frequency", "frame")
 #: How a multi-frequency camera combines its frequencies' distances (docs/model.md, "Frequency fusion").
 FUSIONS = ("inverse_variance", "unambiguity_range", "equal", "highest_frequency")
-SWEEPS = ("distance", "illuminance", "integration_time")
+
+
+@dataclasses.dataclass(frozen=True)
+class SweepAxis:
+    """One quantity a sweep varies: the one table of the sweep axes that the configuration, the
+    sweeps, the command line, the plots, the reports, the explorer, the sweep files, the calibration
+    and the recording read (:data:`SWEEP_AXES`).
+
+    **Fields:** ``name`` (``"distance"``: ``tofjax simulate --sweep``, :class:`tofjax.Sweep`'s
+    ``variable``, a sweep file's ``sweep``); ``column`` (``"distance_m"``: the operating point's
+    field of :class:`tofjax.Scene`, :class:`tofjax.Sweep` and :class:`tofjax.Result`, and the sweep
+    file's column); ``unit`` (SI, of the values everywhere: configuration, files, ``--from``);
+    ``label`` (words for axes and tables); ``display_unit`` and ``display_scale`` (what plots and
+    tables show: SI value x scale); ``title`` (the thesis GUI's name, §4.3)."""
+
+    name: str
+    column: str
+    unit: str
+    label: str
+    display_unit: str
+    display_scale: float
+    title: str
+
+    @property
+    def key(self) -> str:
+        """The configuration key of the nominal value, ``scene.<column>`` (its range bounds the sweep)."""
+        return f"scene.{self.column}"
+
+    @property
+    def range_keys(self) -> tuple[str, str]:
+        """The ``[scene]`` keys of the configured sweep's start and end (``distance_from_m``, ...)."""
+        return f"{self.name}_from_{self.unit}", f"{self.name}_to_{self.unit}"
+
+    @property
+    def axis_label(self) -> str:
+        """``label [display_unit]``, for plot axes and table heads."""
+        return f"{self.label} [{self.display_unit}]"
+
+
+#: The sweep axes, by name (:class:`SweepAxis`), in the order of the command line's choices.
+SWEEP_AXES: dict[str, SweepAxis] = {a.name: a for a in (
+    SweepAxis("distance", "distance_m", "m", "distance", "m", 1.0, "Distance"),
+    SweepAxis("illuminance", "illuminance_lx", "lx", "background illuminance", "lx", 1.0, "Background light"),
+    SweepAxis("integration_time", "integration_time_s", "s", "integration time per phase image", "ms", 1e3,
+              "Integration time"),
+)}
+SWEEPS = tuple(SWEEP_AXES)
+#: The operating point's columns (every sweep sets all three), in the axes' order.
+OPERATING_POINT_COLUMNS = tuple(a.column for a in SWEEP_AXES.values())
 
 
 class ConfigError(ValueError):
@@ -510,12 +558,11 @@ def validate(raw: Mapping[str, Any], where: str = "") -> dict[str, dict[str, Any
                           f"{len(s['extra_backgrounds'])} source(s) but scene.extra_illuminances_lx = "
                           f"{s['extra_illuminances_lx']!r} gives {len(s['extra_illuminances_lx'])} illuminance(s): "
                           "give one illuminance per source")
-    for stem, unit in (("distance", "m"), ("illuminance", "lx"), ("integration_time", "s")):
-        lo, hi = s[f"{stem}_from_{unit}"], s[f"{stem}_to_{unit}"]
+    for axis in SWEEP_AXES.values():
+        lo_key, hi_key = axis.range_keys
+        lo, hi = s[lo_key], s[hi_key]
         if not lo < hi:
-            raise ConfigError(
-                f"{loc}scene.{stem}_from_{unit} = {lo!r} must be less than scene.{stem}_to_{unit} = {hi!r}"
-            )
+            raise ConfigError(f"{loc}scene.{lo_key} = {lo!r} must be less than scene.{hi_key} = {hi!r}")
     try:
         check_quantum_efficiency(p["photo_responsivity_a_per_w"], merged["illumination"]["wavelength_m"])
     except ValueError as err:

@@ -12,10 +12,9 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ._params import Params, Scene
-from ._schema import KEY_BY_DOTTED, SWEEPS, check_array, suggest
+from ._schema import KEY_BY_DOTTED, OPERATING_POINT_COLUMNS, SWEEP_AXES, SWEEPS, check_array, suggest
 
 #: Sweep variable -> the scene field it replaces.
-SCENE_FIELD = {"distance": "distance_m", "illuminance": "illuminance_lx", "integration_time": "integration_time_s"}
 
 
 def _f64(x):
@@ -57,8 +56,8 @@ class Sweep(eqx.Module):
         if self.values.ndim < 1 or self.values.size < 1:
             raise ValueError(f"sweep values must be a non-empty array of at least one dimension, got shape "
                              f"{self.values.shape}")
-        check_array("scene", SCENE_FIELD[self.variable], self.values)
-        for name in SCENE_FIELD.values():
+        check_array("scene", SWEEP_AXES[self.variable].column, self.values)
+        for name in OPERATING_POINT_COLUMNS:
             column = getattr(self, name)
             if column is None:
                 continue
@@ -70,17 +69,17 @@ class Sweep(eqx.Module):
     def points(cls, variable: str, distance_m, illuminance_lx, integration_time_s) -> Sweep:
         """A sweep whose every point sets all three operating-point quantities."""
         columns = {"distance_m": distance_m, "illuminance_lx": illuminance_lx, "integration_time_s": integration_time_s}
-        if variable not in SCENE_FIELD:
+        if variable not in SWEEP_AXES:
             raise ValueError(f"sweep = {variable!r} is not allowed: expected one of "
                              + ", ".join(repr(s) for s in SWEEPS) + suggest(variable, SWEEPS))
-        return cls(variable, columns[SCENE_FIELD[variable]], **columns)
+        return cls(variable, columns[SWEEP_AXES[variable].column], **columns)
 
     @classmethod
     def linspace(cls, variable: str, start: float, stop: float, samples: int) -> Sweep:
         """``samples`` equally spaced values from ``start`` to ``stop`` (both included)."""
         if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
             raise ValueError(f"samples = {samples!r} is out of range: allowed integer >= 1")
-        key = KEY_BY_DOTTED.get(f"scene.{SCENE_FIELD.get(variable, '')}")
+        key = KEY_BY_DOTTED.get(SWEEP_AXES[variable].key) if variable in SWEEP_AXES else None
         if key is not None and samples > 1 and not start < stop:
             raise ValueError(f"sweep from = {start!r} must be less than to = {stop!r} ({key.unit})")
         return cls(variable, np.linspace(start, stop, samples))
@@ -98,7 +97,8 @@ class Sweep(eqx.Module):
     def operating_points(self, scene: Scene) -> tuple[Array, Array, Array]:
         """(distance_m, illuminance_lx, integration_time_s), each of the sweep's shape."""
         out = []
-        for variable, name in SCENE_FIELD.items():
+        for variable, axis in SWEEP_AXES.items():
+            name = axis.column
             given = getattr(self, name)
             if variable == self.variable:
                 out.append(self.values)

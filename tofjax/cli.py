@@ -28,10 +28,8 @@ from pathlib import Path
 
 from . import __version__
 from ._cache import CACHE_ENV, FAST_COMPILE_XLA_FLAG, compilation_cache_dir, enable_compilation_cache  # noqa: F401
+from ._schema import SWEEP_AXES, SWEEPS  # the schema's tables need neither JAX nor NumPy
 
-_UNITS = {"distance": ("m", 1.0), "illuminance": ("lx", 1.0), "integration_time": ("ms", 1e3)}
-#: The sweep variables (as :data:`tofjax._schema.SWEEPS`, repeated here so that --help needs no import).
-_SWEEPS = ("distance", "illuminance", "integration_time")
 
 class CommandError(Exception):
     """A failure a subcommand reports as one line with its own exit status (default 1)."""
@@ -171,7 +169,7 @@ def build_parser() -> argparse.ArgumentParser:
                                      "default to the configuration ([scene] *_from/*_to, samples; "
                                      "[pixel] iterations).")
     sim.add_argument("--config", type=Path, help="TOML configuration (default: built-in defaults)")
-    sim.add_argument("--sweep", required=True, choices=_SWEEPS, help="the swept quantity")
+    sim.add_argument("--sweep", required=True, choices=SWEEPS, help="the swept quantity")
     sim.add_argument("--from", dest="start", type=finite_float, help="sweep start, SI units (m, lx, s)")
     sim.add_argument("--to", dest="stop", type=finite_float, help="sweep end, SI units (m, lx, s)")
     sim.add_argument("--samples", type=positive_int, help="number of sweep samples")
@@ -207,10 +205,11 @@ def build_parser() -> argparse.ArgumentParser:
 def _summary(result, elapsed_s: float, out: Path) -> str:
     import numpy as np
 
-    unit, scale = _UNITS[result.sweep_variable]
+    axis = SWEEP_AXES[result.sweep_variable]
+    scale = axis.display_scale
     values = np.asarray(result.sweep_values)
     rows = np.unique(np.linspace(0, len(values) - 1, min(len(values), 10)).round().astype(int))
-    head = f"{result.sweep_variable + ' [' + unit + ']':>22} {'unwrapped [m]':>15} {'depth std [mm]':>15} " \
+    head = f"{axis.name + ' [' + axis.display_unit + ']':>22} {'unwrapped [m]':>15} {'depth std [mm]':>15} " \
            f"{'rel. std [%]':>13} {'amplitude [LSB]':>16} {'valid [%]':>10}"
     lines = [head, "-" * len(head)]
     dist = np.asarray(result.distance_m)
@@ -240,9 +239,8 @@ def _summary(result, elapsed_s: float, out: Path) -> str:
 def _check_sweep_range(args) -> None:
     """``--from`` / ``--to`` against the swept quantity's range, naming the option (before any work)."""
     from ._schema import KEY_BY_DOTTED, in_range
-    from ._sweep import SCENE_FIELD
 
-    key = KEY_BY_DOTTED["scene." + SCENE_FIELD[args.sweep]]
+    key = KEY_BY_DOTTED[SWEEP_AXES[args.sweep].key]
     for flag, x in (("--from", args.start), ("--to", args.stop)):
         if x is not None and not in_range(key, x):
             raise _UsageError(f"{flag} = {x!r} is out of range for the {args.sweep} sweep: allowed "

@@ -15,8 +15,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import LogFormatterSciNotation, LogLocator, NullFormatter
 
-_AXES = {"distance": ("distance [m]", 1.0), "illuminance": ("background illuminance [lx]", 1.0),
-         "integration_time": ("integration time [ms]", 1e3)}
+from ._schema import SWEEP_AXES, SWEEPS
 
 
 def to_png(fig: Figure, dpi: float = 110) -> bytes:
@@ -34,8 +33,8 @@ def _axes(ax, ncols: int = 1, size=(6.4, 4.2)):
 
 
 def _x(result):
-    label, scale = _AXES[result.sweep_variable]
-    return np.asarray(result.sweep_values) * scale, label
+    axis = SWEEP_AXES[result.sweep_variable]
+    return np.asarray(result.sweep_values) * axis.display_scale, axis.axis_label
 
 
 def waveforms(params, ax=None) -> Figure:
@@ -366,14 +365,14 @@ def figure_csv(fig: Figure) -> str:
 
 #: Plot name -> (function, sweeps it applies to, thesis reference); Table 4.9.
 PLOTS = {
-    "cross_correlation": (cross_correlation, ("distance", "illuminance", "integration_time"), "CC, Figs 5.3/5.4"),
-    "photon_transfer_curve": (photon_transfer_curve, ("distance", "illuminance", "integration_time"),
+    "cross_correlation": (cross_correlation, SWEEPS, "CC, Figs 5.3/5.4"),
+    "photon_transfer_curve": (photon_transfer_curve, SWEEPS,
                               "PTC, Figs 5.12a/5.14a/5.17a"),
-    "snr": (snr, ("distance", "illuminance", "integration_time"), "SNR, Figs 5.12b/5.14b/5.17b"),
-    "amplitude": (amplitude, ("distance", "illuminance", "integration_time"), "Amplitudes, Figs 5.11a/5.16a"),
-    "depth_noise": (depth_noise, ("distance", "illuminance", "integration_time"), "DistNoise, Figs 5.7/5.13/5.16b"),
+    "snr": (snr, SWEEPS, "SNR, Figs 5.12b/5.14b/5.17b"),
+    "amplitude": (amplitude, SWEEPS, "Amplitudes, Figs 5.11a/5.16a"),
+    "depth_noise": (depth_noise, SWEEPS, "DistNoise, Figs 5.7/5.13/5.16b"),
     "relative_depth_noise": (lambda r, ax=None: depth_noise(r, relative=True, ax=ax),
-                             ("distance", "illuminance", "integration_time"), "Figs 5.11b/5.13/5.16b"),
+                             SWEEPS, "Figs 5.11b/5.13/5.16b"),
     "calculated_vs_real": (calculated_vs_real, ("distance",), "DistUnambiguity, Fig 5.6a"),
     "unwrapped_vs_real": (unwrapped_vs_real, ("distance",), "DistRealDist, Fig 5.6b"),
     "wiggling": (wiggling, ("distance",), "Wiggling, Fig 5.5"),

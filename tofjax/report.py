@@ -22,10 +22,9 @@ import numpy as np
 from . import plots
 from ._estimate import cw_depth_noise, pulsed_depth_noise
 from ._analytic import predict
+from ._schema import SWEEP_AXES
 from ._sweep import Sweep
 from .outputs import write_bytes, write_text
-
-_UNITS = {"distance": "m", "illuminance": "lx", "integration_time": "s"}
 
 
 def _first(x: np.ndarray, mask: np.ndarray):
@@ -110,7 +109,7 @@ def write_report(directory, config, result, elapsed_s: float, csv_path, multifre
         write_bytes(directory / f"{name}.png", data)
 
     h = headlines(params, result)
-    sweep_unit = _UNITS[result.sweep_variable]
+    sweep_unit = SWEEP_AXES[result.sweep_variable].unit
     rows = [
         ("depth noise at the nominal point", f"{_fmt(h['nominal_depth_std_m'], 'mm', 1e3)} "
          f"({_fmt(h['nominal_relative_depth_std'], '%', 100)}) at {h['nominal_distance_m']:g} m, "

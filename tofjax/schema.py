@@ -4,6 +4,8 @@ explorer share, and the dotted-name access to parameter leaves.
 
 - :data:`KEYS` (tuple of :class:`Key`), :data:`KEY_BY_DOTTED` (``"section.name"`` -> :class:`Key`),
   :data:`SECTIONS`, :func:`keys_of` (the keys of one section);
+- :data:`SWEEP_AXES` (name -> :class:`SweepAxis`: the sweep axes' configuration keys, columns, units
+  and labels, written once), :data:`SWEEPS` (their names), :data:`OPERATING_POINT_COLUMNS`;
 - :func:`in_range` (a number against a key's range), :func:`coerce` (check one value against its
   key; raises :class:`ConfigError` naming key, value and range), :func:`suggest` (a "did you mean"
   suffix), :func:`render_toml` (a full configuration as commented TOML), :func:`read_toml` (a TOML
@@ -14,7 +16,9 @@ explorer share, and the dotted-name access to parameter leaves.
 
 from typing import TYPE_CHECKING
 
-from ._schema import KEY_BY_DOTTED, KEYS, SECTIONS, SWEEPS, ConfigError, Key, coerce, in_range, keys_of, suggest
+from ._schema import (
+    KEY_BY_DOTTED, KEYS, OPERATING_POINT_COLUMNS, SECTIONS, SWEEP_AXES, SWEEPS, ConfigError, Key, SweepAxis, coerce,
+    in_range, keys_of, suggest)
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from ._config import read_toml, render_toml
@@ -34,5 +38,6 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["KEYS", "KEY_BY_DOTTED", "SECTIONS", "SWEEPS", "ConfigError", "Key", "coerce", "float_leaf_names",
+__all__ = ["KEYS", "KEY_BY_DOTTED", "OPERATING_POINT_COLUMNS", "SECTIONS", "SWEEPS", "SWEEP_AXES", "SweepAxis",
+           "ConfigError", "Key", "coerce", "float_leaf_names",
            "get_leaf", "in_range", "keys_of", "read_toml", "render_toml", "set_leaves", "suggest"]

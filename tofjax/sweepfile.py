@@ -54,7 +54,7 @@ from typing import IO
 
 import numpy as np
 
-from ._schema import EXPOSURE_DEFINITIONS, FUSIONS
+from ._schema import EXPOSURE_DEFINITIONS, FUSIONS, SWEEP_AXES, SWEEPS
 
 FORMAT_NAME = "tofjax-sweep"
 FORMAT_VERSION = 2
@@ -74,7 +74,7 @@ REQUIRED_COLUMNS_V2 = ("distance_m", "integration_time_s", "illuminance_lx", "n_
 OBSERVABLE_COLUMNS = ("depth_std_m", "depth_mean_m", "amplitude_mean_lsb")
 #: Metadata a version-1 file may not carry (a version-1 reader would ignore it and misread the file).
 V2_METADATA = ("modulation_frequencies_hz", "frequency_fusion", "integration_time_per")
-SWEEP_NAMES = ("distance", "illuminance", "integration_time")
+SWEEP_NAMES = SWEEPS
 SOURCES = ("simulation", "measurement")
 _KEY = re.compile(r"[a-z][a-z0-9_.]*\Z")
 _META = re.compile(r"#\s*([^:]+?)\s*:\s?(.*)\Z")
@@ -195,8 +195,7 @@ def _check_metadata(path, metadata: Mapping[str, str], lines: Mapping[str, int])
 
 
 #: Operating-point columns -> the configuration key whose range they share.
-_OPERATING_POINT_KEYS = {"distance_m": "scene.distance_m", "integration_time_s": "scene.integration_time_s",
-                         "illuminance_lx": "scene.illuminance_lx"}
+_OPERATING_POINT_KEYS = {a.column: a.key for a in SWEEP_AXES.values()}
 
 
 def _check_value(path, line: int, column: int, name: str, x: float) -> None:
