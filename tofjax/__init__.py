@@ -51,7 +51,6 @@ _EXPORTS = {
     "FrameResult": "_frame", "FLAGS": "_flags", "FrameQuality": "_frame", "predict_frame": "_frame", "noise_image": "_frame",
     "render_frame": "_frame", "sample_frame": "_frame", "prepare_frame": "_frame", "PreparedFrame": "_frame",
     "NoisyFrames": "_frame", "sharded_map": "_frame", "prepare_camera": "_frame", "PreparedCamera": "_frame",
-    "FrameExposure": "_frame",
     "Returns": "_returns", "save_returns": "_returns", "load_returns": "_returns",
     "PixelPattern": "_pattern", "draw_pattern": "_pattern", "mean_pattern": "_pattern",
 }
@@ -94,7 +93,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from . import frameio, plots, progress, report, scenes, schema, stats, sweepfile  # noqa: F401
     from ._flags import FLAGS  # noqa: F401
     from ._frame import (  # noqa: F401
-        FrameExposure, FrameQuality, FrameResult, NoisyFrames, PreparedCamera, PreparedFrame, noise_image, predict_frame,
+        FrameQuality, FrameResult, NoisyFrames, PreparedCamera, PreparedFrame, noise_image, predict_frame,
         prepare_camera, prepare_frame, render_frame, sample_frame, sharded_map)
     from ._framegeometry import (  # noqa: F401
         FrameSettings, depth_returns, frame_rays, frame_shape, pixel_etendue_m2_sr, scene_returns)

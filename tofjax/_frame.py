@@ -37,11 +37,10 @@ from ._flags import (FLAG_LOW_AMPLITUDE, FLAG_LOW_SIGNAL, FLAG_MIXED, FLAG_NO_RE
                      FLAG_SATURATED, FLAG_WRAPPED)
 from ._framegeometry import FrameSettings, frame_shape, pixel_etendue_m2_sr
 from ._frames import PointCharges, draw_frames, drive_blocks, equal_parts
-from ._charges import TapCharges
-from ._mixer import scene_photon_irradiance
+from ._charges import Exposure, TapCharges
 from ._montecarlo import Prepared, assemble, assemble_jit, check_counts, frames_step, run_blocks
 from ._noise import dark_electrons
-from ._optics import photon_energy_j, quantum_efficiency
+from ._photometry import active_e_per_radiance, background_e_per_reflectivity
 from ._params import Params
 from ._pattern import PixelPattern, mean_pattern
 from ._random import key_words
@@ -51,7 +50,6 @@ from ._returns import Returns, _illuminator, intensity_per_w
 from ._scene import pixel_directions, pixel_field
 from ._smooth import Smooth
 from ._sweep import Sweep
-from ._waveforms import waveform_mean
 
 class FrameQuality(eqx.Module):
     """What a frame's flags need besides its statistics, per pixel ``(rows, cols)``: the bits that
@@ -115,41 +113,6 @@ def _phase_noise(expected: Result) -> tuple[Array, Array]:
     return expected.depth_std_m * 2.0 * jnp.pi / expected.unambiguity_range_m, expected.amplitude_mean_lsb
 
 
-class FrameExposure(eqx.Module):
-    """What every pixel collected in each phase image, before the taps split it (Eqs 3.19-3.21):
-    ``(rows, cols)`` leading axes. :meth:`charges` makes the taps' :class:`~tofjax._mixer.TapCharges`
-    from it elementwise.
-
-    The frame's programs hand this on rather than the tap charges: both taps read the modulated
-    sum, and XLA on a CPU does not duplicate its table lookups into two consumers; it materialises
-    every return's gathered table row instead (nine 38528 x 16 arrays for 224 x 172 pixels: the
-    exposure took 18 ms instead of 5). Materialised once, as this program's output, it is read by
-    both.
-
-    **Fields:** ``modulated_e`` ``(rows, cols, phases)``: K sum_r N_r a_j(delay_r), the modulated
-    electrons tap A collects (K the demodulation contrast, N_r the active electrons of return r);
-    ``signal_e``: sum_r N_r; ``background_e``; ``contrast``: K; ``tap_asymmetry``: e, tap A
-    collecting 1 + e and tap B 1 - e of the photo charge; ``dark_a_e``, ``dark_b_e``.
-    """
-
-    modulated_e: Float[Array, "rows cols phases"]
-    signal_e: Float[Array, "rows cols"]
-    background_e: Float[Array, "rows cols"]
-    contrast: Float[Array, ""]
-    tap_asymmetry: Float[Array, "rows cols"]
-    dark_a_e: Float[Array, "rows cols"]
-    dark_b_e: Float[Array, "rows cols"]
-
-    def charges(self) -> TapCharges:
-        """The taps' expected electrons: K N a_j plus half of (1 - K) N and of the background to
-        tap A, the rest of K N plus the same halves to tap B (Eqs 3.19-3.21), scaled by 1 +- e."""
-        m = self.modulated_e
-        equal = (0.5 * (1.0 - self.contrast) * self.signal_e + 0.5 * self.background_e)[..., None]
-        photo_a = (m + equal) * (1.0 + self.tap_asymmetry)[..., None]
-        photo_b = (self.contrast * self.signal_e[..., None] - m + equal) * (1.0 - self.tap_asymmetry)[..., None]
-        return TapCharges(photo_a, photo_b, self.dark_a_e, self.dark_b_e, self.signal_e, self.background_e)
-
-
 class PreparedCamera(eqx.Module):
     """A camera prepared for frames once (:func:`prepare_camera`): everything of a frame that does
     not depend on the scene, so that a scene's frames, noise image or analytic frame cost only its
@@ -185,8 +148,8 @@ class PreparedCamera(eqx.Module):
     def shape(self) -> tuple[int, int]:
         return tuple(self.dark_a_e.shape)
 
-    def expose(self, returns: Returns) -> FrameExposure:
-        """Every pixel's :class:`FrameExposure` of a scene, at the camera's illuminance and
+    def expose(self, returns: Returns) -> Exposure:
+        """Every pixel's :class:`Exposure` of a scene, at the camera's illuminance and
         integration time: each return sorted by the mixer with its own delay f path / c (Eq 3.22)
         plus the pixel's phase offset, the returns' phasors added (Eqs 3.19-3.21).
 
@@ -209,8 +172,8 @@ class PreparedCamera(eqx.Module):
         return (modulated, sum_by_slices(per_return, -1, UNROLLED_RETURNS),
                 returns.ambient_reflectivity * self.background_e_per_reflectivity)
 
-    def _with_camera(self, modulated: Array, signal: Array, background: Array) -> FrameExposure:
-        return FrameExposure(modulated, signal, background, self.chain.params.pixel.demodulation_contrast,
+    def _with_camera(self, modulated: Array, signal: Array, background: Array) -> Exposure:
+        return Exposure(modulated, signal, background, self.chain.params.pixel.demodulation_contrast,
                              self.pattern.tap_asymmetry, self.dark_a_e, self.dark_b_e)
 
     def sample(self, returns: Returns, key: PRNGKeyArray, frames: int = 1, *, raw: bool = False) -> NoisyFrames:
@@ -280,13 +243,11 @@ def _camera(params: Params, settings: FrameSettings, pattern: PixelPattern | Non
     """The :class:`PreparedCamera` of ``params`` (``chain``: the frame's chain, if built)."""
     pattern = _pattern(params, shape, pattern)
     chain = _frame_chain(params, smooth, math.prod(shape), pattern) if chain is None else chain
-    scene, ill, consts, pixel = params.scene, params.illumination, params.constants, params.pixel
+    scene, consts, pixel = params.scene, params.constants, params.pixel
     t = scene.integration_time_s
     per_radiance = pixel_etendue_m2_sr(params, settings, pixel_field(params.camera, shape)) * pattern.gain  # m^2 sr
-    qe = quantum_efficiency(pixel, ill.wavelength_m, consts)
-    emitted = ill.peak_power_w * waveform_mean(params.illumination_waveform)
-    active = emitted * per_radiance * (t / photon_energy_j(ill.wavelength_m, consts) * qe)
-    background = scene_photon_irradiance(params, scene.illuminance_lx) / jnp.pi * per_radiance * t * qe
+    active = active_e_per_radiance(params, per_radiance, t)
+    background = background_e_per_reflectivity(params, per_radiance, scene.illuminance_lx, t)
     return PreparedCamera(chain, settings, pattern, active, background,
                           dark_electrons(pixel, t, consts, pattern.dark_slope_a_v_per_s),
                           dark_electrons(pixel, t, consts, pattern.dark_slope_b_v_per_s),
@@ -303,8 +264,8 @@ def prepare_camera(params: Params, settings: FrameSettings, pattern: PixelPatter
     return _prepare_camera(params, settings, pattern, smooth, frame_shape(params))
 
 
-def frame_exposure(chain: Chain, settings: FrameSettings, returns: Returns, pattern: PixelPattern) -> FrameExposure:
-    """Every pixel's :class:`FrameExposure` on the frame's ``chain`` (:meth:`PreparedCamera.expose`)."""
+def frame_exposure(chain: Chain, settings: FrameSettings, returns: Returns, pattern: PixelPattern) -> Exposure:
+    """Every pixel's :class:`Exposure` on the frame's ``chain`` (:meth:`PreparedCamera.expose`)."""
     return _camera(chain.params, settings, pattern, None, returns.shape, chain).expose(returns)
 
 
@@ -549,7 +510,7 @@ class NoisyFrames(eqx.Module):
 
 # Programs: the camera, the exposure, and what reads it, each its own program: in one, XLA on a CPU
 # fuses a producer into each of its consumers and evaluates it several times (one frame of 224 x 172
-# in one program: 32 ms), and the exposure's sum over the returns has two (the taps; FrameExposure).
+# in one program: 32 ms), and the exposure's sum over the returns has two (the taps; Exposure).
 # Under an outer jit they are traced into one program as usual.
 _prepare_camera = _jit.jit(_camera)
 _scene_flags = _jit.jit(scene_flags)
@@ -569,7 +530,7 @@ def _scene_light(camera: PreparedCamera, returns: Returns) -> tuple[Array, Array
 FRAME_CHUNK_ELEMENTS = 1 << 21
 
 
-def _point_charges(chain, exposed: FrameExposure) -> PointCharges:
+def _point_charges(chain, exposed: Exposure) -> PointCharges:
     """The pixels as the frames' points (flattened), each with its own full well; their charges are
     made where the frames are drawn."""
     n = math.prod(exposed.dark_a_e.shape)
@@ -578,7 +539,7 @@ def _point_charges(chain, exposed: FrameExposure) -> PointCharges:
 
 
 @_jit.jit
-def _charges_and_constants(chain, radial_m, exposure: FrameExposure):
+def _charges_and_constants(chain, radial_m, exposure: Exposure):
     return _sweep(chain.params, radial_m), exposure.charges(), _point_charges(chain, exposure).constants(chain)
 
 

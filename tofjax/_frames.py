@@ -78,7 +78,7 @@ class PointCharges(eqx.Module):
 
     **Fields:** ``exposed``: what makes the points' :class:`~tofjax._mixer.TapCharges` with its
     ``charges()``, flattened ``(points, ...)``: the charges themselves, or a frame's
-    :class:`~tofjax._frame.FrameExposure` (then the taps' charges, too, are made inside the branch,
+    :class:`~tofjax._charges.Exposure` (then the taps' charges, too, are made inside the branch,
     from the program's input, and nothing of them is written out); ``index``, ``full_well_e``: as
     :func:`point_constants`."""
 

@@ -138,6 +138,17 @@ def intensity_per_w(illumination: Illumination, falloff_exponent, v: Float[Array
     return jnp.where(ahead & inside, value, 0.0)
 
 
+def axis_return(illumination: Illumination, falloff_exponent, reflectivity: Array,
+                distance_m: Float[Array, "*b"]) -> tuple[Float[Array, "*b"], Float[Array, "*b"]]:
+    """The one return of the pixel on the optical axis looking at a wall that faces the camera at
+    ``distance_m``, the illumination at the lens (the thesis' centre pixel, §3.1): ``(radiance_per_w,
+    path_m)``, what :func:`direct_returns` computes for that ray without a baseline: the
+    illumination's intensity along its axis (evaluated once) over pi d^2, and the path 2 d."""
+    d = jnp.asarray(distance_m, dtype=float)
+    on_axis = intensity_per_w(illumination, falloff_exponent, jnp.array([0.0, 0.0, 1.0]))
+    return reflectivity * on_axis / (jnp.pi * d * d), d + d
+
+
 def _illuminator(baseline_m) -> Array:
     b = jnp.asarray(baseline_m, dtype=float)
     return jnp.stack([b[0], b[1], jnp.zeros_like(b[0])])
