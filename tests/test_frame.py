@@ -85,7 +85,7 @@ def test_monte_carlo_frames_match_the_analytic_noise_image(params, one_ray):
     np.testing.assert_allclose(prepared.render(jax.random.key(1), 2, keep_frames=2).frames_radial_m,
                                mc.frames_radial_m, rtol=1e-15, atol=0)
     np.testing.assert_allclose(prepared.predict().depth_std_m, an.depth_std_m, rtol=1e-12)
-    # With progress the chunks run from the host (tofjax._frames.drive_blocks): the same frames and statistics.
+    # With progress the chunks run from the host (tofjax._executor.drive_blocks): the same frames and statistics.
     loud = prepared.render(jax.random.key(1), 300, keep_frames=2, progress=True)
     np.testing.assert_allclose(loud.frames_radial_m, mc.frames_radial_m, rtol=1e-15, atol=0)
     np.testing.assert_allclose(loud.depth_std_m, mc.depth_std_m, rtol=1e-13)

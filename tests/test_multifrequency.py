@@ -35,7 +35,7 @@ def test_dual_frequency_extends_the_range():
     # combining frequencies beats each one alone where unwrapping is reliable
     per = np.asarray(noisy.per_frequency.depth_std_m)
     assert np.all(np.asarray(noisy.depth_std_m)[:5] < per[:, :5].min(axis=0))
-    # With progress, the chunks run from the host (tofjax._frames.drive_blocks): the same result, to
+    # With progress, the chunks run from the host (tofjax._executor.drive_blocks): the same result, to
     # rounding (the tap voltages' difference is computed in another program).
     loud = tj.simulate_multifrequency(tj.Params(scene=tj.Scene(illuminance_lx=0.0)),
                                       tj.Sweep.linspace("distance", 0.5, 7.4, 12), jax.random.key(1), 1500,

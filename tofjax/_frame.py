@@ -36,9 +36,10 @@ from ._correlation import UNROLLED_RETURNS
 from ._flags import (FLAG_LOW_AMPLITUDE, FLAG_LOW_SIGNAL, FLAG_MIXED, FLAG_NO_RETURN, FLAG_OUTSIDE_ILLUMINATION,
                      FLAG_SATURATED, FLAG_WRAPPED)
 from ._framegeometry import FrameSettings, frame_shape, pixel_etendue_m2_sr
-from ._frames import PointCharges, draw_frames, drive_blocks, equal_parts
+from ._executor import FRAME_CHUNK_ELEMENTS, equal_parts, execute
+from ._frames import PointCharges, draw_frames
 from ._charges import Exposure, TapCharges
-from ._montecarlo import Prepared, assemble, assemble_jit, check_counts, frames_step, run_blocks
+from ._montecarlo import Prepared, assemble, check_counts, frames_step
 from ._noise import dark_electrons
 from ._photometry import active_e_per_radiance, background_e_per_reflectivity
 from ._params import Params
@@ -464,12 +465,9 @@ class PreparedFrame(eqx.Module):
                progress: bool = False) -> FrameResult:
         """``frames`` Monte Carlo frames (:func:`render_frame`, which is ``prepare_frame(...).render(...)``)."""
         check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS, raw=raw)
-        if progress and not _jit.traced((self, key)):  # chunk by chunk from the host (tofjax.simulate's progress)
-            step = frames_step(self.chain, _key_words_jit(key), raw=raw)
-            sums, kept = drive_blocks(step, self.prepared.consts, math.prod(self.shape), frames, keep_frames,
-                                      self.chain.n_phases, FRAME_CHUNK_ELEMENTS)
-            return self._wrap(assemble_jit(self.chain, self.sweep, self.prepared, sums, kept, frames))
-        return self._wrap(_render_prepared(self, key, frames, keep_frames, progress, raw))
+        return self._wrap(execute(_render_setup, _render_consts, _render_finish, (self, key, raw, frames),
+                                  points=math.prod(self.shape), frames=frames, keep=keep_frames,
+                                  phases=self.chain.n_phases, elements=FRAME_CHUNK_ELEMENTS, progress=progress))
 
     def predict(self) -> FrameResult:
         """The analytic frame, the noise image (:func:`predict_frame`)."""
@@ -513,21 +511,14 @@ class NoisyFrames(eqx.Module):
 # in one program: 32 ms), and the exposure's sum over the returns has two (the taps; Exposure).
 # Under an outer jit they are traced into one program as usual.
 _prepare_camera = _jit.jit(_camera)
+_key_words = _jit.jit(key_words)
+_assemble = _jit.jit(assemble)
 _scene_flags = _jit.jit(scene_flags)
-_key_words_jit = _jit.jit(key_words)
 
 
 @_jit.jit
 def _scene_light(camera: PreparedCamera, returns: Returns) -> tuple[Array, Array, Array]:
     return camera._scene_light(returns)
-
-
-#: Phase images per chunk of a frame's Monte Carlo (``run_blocks``' ``elements``): a whole 640 x 480
-#: frame of 4 phase images (1.2 M) is one block. On a CPU, XLA runs the loop over several blocks
-#: (``lax.map``) 4-5x slower per pixel than one block (one 640 x 480 frame: 124 ms in 3 blocks of
-#: the sweeps' 2^19, 27 ms in one), at no more peak memory (649 against 672 MB resident; a chunk's
-#: float64 array is at most 16 MB). Sweeps keep ``CHUNK_ELEMENTS``.
-FRAME_CHUNK_ELEMENTS = 1 << 21
 
 
 def _point_charges(chain, exposed: Exposure) -> PointCharges:
@@ -543,12 +534,18 @@ def _charges_and_constants(chain, radial_m, exposure: Exposure):
     return _sweep(chain.params, radial_m), exposure.charges(), _point_charges(chain, exposure).constants(chain)
 
 
-@_jit.jit
-def _render_prepared(frame: PreparedFrame, key, frames, keep_frames, progress, raw=False) -> Result:
-    chain, n = frame.chain, math.prod(frame.shape)
-    sums, kept = run_blocks(frames_step(chain, key_words(key), raw=raw), frame.prepared.consts, n, frames, keep_frames,
-                            chain.n_phases, FRAME_CHUNK_ELEMENTS, progress=progress)
-    return assemble(chain, frame.sweep, frame.prepared, sums, kept, frames)
+def _render_setup(frame: PreparedFrame, key, raw, frames):
+    """A prepared frame's run (:func:`tofjax._executor.execute`): nothing to carry, the chunk step of
+    the frame's chain (only the key's words computed)."""
+    return None, frames_step(frame.chain, _key_words(key), raw=raw)
+
+
+def _render_consts(frame: PreparedFrame, key, raw, frames, carry):
+    return frame.prepared.consts
+
+
+def _render_finish(frame: PreparedFrame, key, raw, frames, carry, sums, kept) -> Result:
+    return _assemble(frame.chain, frame.sweep, frame.prepared, sums, kept, frames)
 
 
 @_jit.jit

@@ -9,12 +9,12 @@ import jax.numpy as jnp
 import jax.random as jr
 from jaxtyping import Array, PRNGKeyArray
 
-from . import _jit
 from ._analytic import full_well_fraction, unwrap_if_sweep
 from ._chain import Chain, build_chain
 from ._depth import unwrap_along_sweep
-from ._frames import (BLOCK_POINTS, CHUNK_ELEMENTS, PointConstants, Sums, draw_frames, drive_blocks, frame_statistics,
-                      point_constants, reduce_frames, run_blocks)
+from . import _jit
+from ._executor import BLOCK_POINTS, CHUNK_ELEMENTS, execute, run_blocks
+from ._frames import PointConstants, Sums, draw_frames, frame_statistics, point_constants, reduce_frames
 from ._charges import TapCharges
 from ._params import Params
 from ._random import key_words
@@ -86,10 +86,10 @@ def prepare(chain: Chain, sweep: Sweep, dark_slopes_v_per_s=None) -> Prepared:
 
 
 class FramesStep(eqx.Module):
-    """The chunk step of :func:`tofjax._frames.run_blocks` for one chain: sums, and with ``record``
+    """The chunk step of :func:`tofjax._executor.run_blocks` for one chain: sums, and with ``record``
     the frames as (codes ``(points, frames, phases)``, phase in [0, 2 pi), amplitude, valid, and
     with ``raw`` the taps as read, ``(points, frames, phases)`` each: :func:`~tofjax._frames.draw_frames`). A
-    pytree, so that the chunk programs of :func:`tofjax._frames.drive_blocks` take it as an argument.
+    pytree, so that the chunk programs of :func:`tofjax._executor.drive_blocks` take it as an argument.
 
     A chunk of fewer frames than points (a camera frame's pixels) whose frames are not kept is drawn
     frames first, so that the points are the arrays' minor axis: with a minor axis of a few frames
@@ -214,12 +214,9 @@ def simulate(
     """
     check_inputs(params, sweep)
     check_counts(iterations, keep_frames, sweep.samples, params.pixel.n_phases, raw=raw)
-    if progress and not _jit.traced((params, sweep, key, smooth)):
-        # From the host, chunk by chunk: programs without host callbacks (tofjax._frames.drive_blocks).
-        chain, prepared, step = _setup_jit(params, sweep, key, smooth, fixed_pattern, raw)
-        sums, kept = drive_blocks(step, prepared.consts, sweep.samples, iterations, keep_frames, chain.n_phases)
-        return assemble_jit(chain, sweep, prepared, sums, kept, iterations)
-    return _simulate(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames, progress, raw)
+    return execute(_setup, _consts, _finish, (params, sweep, key, smooth, fixed_pattern, raw, iterations),
+                   points=sweep.samples, frames=iterations, keep=keep_frames, phases=params.pixel.n_phases,
+                   progress=progress)
 
 
 def _run_inputs(params, sweep, key, smooth, fixed_pattern):
@@ -229,18 +226,19 @@ def _run_inputs(params, sweep, key, smooth, fixed_pattern):
     return build_chain(params, smooth, sweep.samples), key, slopes
 
 
-def _setup(params, sweep, key, smooth, fixed_pattern, raw=False):
-    """What :func:`monte_carlo` runs its chunks with: the chain, the expected charges and frames'
-    constants, and the chunk step."""
+@_jit.jit
+def _setup(params, sweep, key, smooth, fixed_pattern, raw, iterations):
+    """:func:`simulate`'s run (:func:`tofjax._executor.execute`): the chain and the expected charges
+    and frames' constants (carried to :func:`_finish`), and the chunk step."""
     chain, key, slopes = _run_inputs(params, sweep, key, smooth, fixed_pattern)
-    return chain, prepare(chain, sweep, slopes), frames_step(chain, key_words(key), raw=raw)
+    return (chain, prepare(chain, sweep, slopes)), frames_step(chain, key_words(key), raw=raw)
+
+
+def _consts(params, sweep, key, smooth, fixed_pattern, raw, iterations, carry) -> PointConstants:
+    return carry[1].consts
 
 
 @_jit.jit
-def _simulate(params, sweep, key, iterations, smooth, fixed_pattern, keep_frames, progress, raw=False) -> Result:
-    chain, key, slopes = _run_inputs(params, sweep, key, smooth, fixed_pattern)
-    return monte_carlo(chain, sweep, key, iterations, keep_frames, slopes, progress=progress, raw=raw)
-
-
-_setup_jit = _jit.jit(_setup)
-assemble_jit = _jit.jit(assemble)
+def _finish(params, sweep, key, smooth, fixed_pattern, raw, iterations, carry, sums, kept) -> Result:
+    chain, prepared = carry
+    return assemble(chain, sweep, prepared, sums, kept, iterations)

@@ -45,7 +45,8 @@ from jaxtyping import Array, Bool, Float, PRNGKeyArray
 from . import _jit
 from ._analytic import analytic, moments
 from ._chain import Chain, build_chain
-from ._frames import draw_frames, drive_blocks, reduce_frames, run_blocks, wrap
+from ._executor import execute
+from ._frames import draw_frames, reduce_frames, wrap
 from ._montecarlo import assemble, check_counts, prepare
 from ._constants import SPEED_OF_LIGHT_M_PER_S
 from ._params import Params
@@ -214,18 +215,15 @@ def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, ite
     c = float(params.constants.speed_of_light_m_per_s)
     ranges = tuple(float(x) for x in c / (2.0 * freqs))
     freqs, extended = jnp.asarray(freqs), float(extended_range_m(freqs, c))
-    if progress and not _jit.traced((params, sweep, key)):
-        # From the host, chunk by chunk: programs without host callbacks (tofjax._frames.drive_blocks).
-        chains, prepared, step, consts = _setup_jit(params, sweep, key, freqs, extended, ranges, fusion)
-        sums, kept = drive_blocks(step, consts, sweep.samples, iterations, keep_frames, chains.n_phases)
-        return _finish_jit(params, sweep, iterations, freqs, extended, fusion, chains, prepared, consts[1], sums, kept)
-    return _simulate(params, sweep, key, iterations, freqs, keep_frames, extended, ranges, progress, fusion)
+    return execute(_run_setup, _run_consts, _run_finish, (params, sweep, key, freqs, extended, ranges, fusion, iterations),
+                   points=sweep.samples, frames=iterations, keep=keep_frames, phases=params.pixel.n_phases,
+                   progress=progress)
 
 
 class _Step(eqx.Module):
-    """The chunk step of all frequencies' chains at once (:func:`tofjax._frames.run_blocks`): the
+    """The chunk step of all frequencies' chains at once (:func:`tofjax._executor.run_blocks`): the
     frames of every frequency, their statistics, and those of the combined, unwrapped distance. A
-    pytree, so that the chunk programs of :func:`tofjax._frames.drive_blocks` take it as an argument."""
+    pytree, so that the chunk programs of :func:`tofjax._executor.drive_blocks` take it as an argument."""
 
     chains: Chain  # one per frequency (a leading axis)
     words: tuple[Array, Array]
@@ -313,12 +311,18 @@ def _finish(params, sweep, iterations, freqs, extended, fusion, chains, prepared
 
 
 @_jit.jit
-def _simulate(params, sweep, key, iterations, freqs, keep, extended, ranges, progress=False,
-              fusion="inverse_variance") -> MultiFrequencyResult:
+def _run_setup(params, sweep, key, freqs, extended, ranges, fusion, iterations):
+    """:func:`simulate_multifrequency`'s run (:func:`tofjax._executor.execute`)."""
     chains, prepared, step, consts = _setup(params, sweep, key, freqs, extended, ranges, fusion)
-    sums, kept = run_blocks(step, consts, sweep.samples, iterations, keep, chains.n_phases, progress=progress)
+    return (chains, prepared, consts), step
+
+
+def _run_consts(params, sweep, key, freqs, extended, ranges, fusion, iterations, carry):
+    return carry[2]
+
+
+@_jit.jit
+def _run_finish(params, sweep, key, freqs, extended, ranges, fusion, iterations, carry, sums, kept
+                ) -> MultiFrequencyResult:
+    chains, prepared, consts = carry
     return _finish(params, sweep, iterations, freqs, extended, fusion, chains, prepared, consts[1], sums, kept)
-
-
-_setup_jit = _jit.jit(_setup)
-_finish_jit = _jit.jit(_finish)
