@@ -218,7 +218,8 @@ def test_bad_arguments_raise_clear_errors():
     sweep = tj.Sweep.linspace("distance", 0.5, 4.0, 4)
     with pytest.raises(ValueError, match="iterations = 0 is out of range"):
         tj.simulate(tj.Params(), sweep, jax.random.key(0), 0)
-    with pytest.raises(TypeError, match="params must be a tofjax.Params"):
+    with pytest.raises(TypeError, match=r"camera must be a tofjax.Camera \(or, for the earlier sweep functions, a "
+                                        r"tofjax.Params\), got dict"):
         tj.predict({"pixel": 1}, sweep)
     with pytest.raises(ValueError, match=r"scene.distance_m = .* is out of range: allowed 0 < value <= 1000"):
         tj.Sweep("distance", [-1.0, 2.0])

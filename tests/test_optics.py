@@ -73,7 +73,7 @@ def test_rectangular_spot_area():
 
 
 def test_lens_from_diagonal_fov_and_f_number():
-    cam = tofjax.Camera()
+    cam = tofjax.Optics()
     lens = tofjax.lens(cam)
     diag = math.hypot(224 * 17.5e-6, 172 * 17.5e-6)
     assert float(lens.focal_length_m) == pytest.approx(diag / 2 / math.tan(math.radians(37.5)), rel=1e-12)
@@ -82,7 +82,7 @@ def test_lens_from_diagonal_fov_and_f_number():
     th = math.tan(math.radians(37.5))
     h = 2 * math.degrees(math.atan(th * 0.8))
     v = 2 * math.degrees(math.atan(th * 0.6))
-    rect = tofjax.lens(tofjax.Camera(fov_deg=[h, v]))
+    rect = tofjax.lens(tofjax.Optics(fov_deg=[h, v]))
     assert float(rect.focal_length_m) == pytest.approx(float(lens.focal_length_m), rel=1e-12)
 
 

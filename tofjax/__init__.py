@@ -27,7 +27,7 @@ _EXPORTS = {
     "background_irradiance_w_per_m2": "_background", "background_photon_irradiance": "_background",
     "Config": "_config", "config_from_dict": "_config", "default_config_text": "_config", "load_config": "_config",
     "cw_depth_noise": "_estimate", "pulsed_depth_noise": "_estimate",
-    "Smooth": "_smooth", "predict": "_analytic", "simulate": "_montecarlo",
+    "Smooth": "_smooth", "Camera": "_camera", "predict": "_camera", "simulate": "_camera",
     "CAVEATS": "_result", "CAVEAT_NEAR_LIMIT": "_result", "CAVEAT_COARSE_QUANTIZATION": "_result",
     "CAVEAT_LOW_SNR": "_result", "NoiseBreakdown": "_result", "Result": "_result",
     "MultiFrequencyResult": "_multifrequency", "extended_range_m": "_multifrequency",
@@ -35,7 +35,7 @@ _EXPORTS = {
     "predict_multifrequency": "_multifrequency", "fused_std": "_multifrequency", "fusion_weights": "_multifrequency",
     "phase_image_time_s": "_exposure", "phase_images_per_count": "_exposure",
     "lens": "_optics", "spot_area_m2": "_optics",
-    "ADC": "_params", "AbstractWaveform": "_params", "Camera": "_params", "Illumination": "_params",
+    "ADC": "_params", "AbstractWaveform": "_params", "Optics": "_params", "Illumination": "_params",
     "IlluminationWaveform": "_params", "Params": "_params", "PhysicalConstants": "_params", "Pixel": "_params",
     "ReferenceWaveform": "_params", "Scene": "_params",
     "ConfigError": "_schema", "Sweep": "_sweep",
@@ -99,7 +99,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
         FrameSettings, depth_returns, frame_rays, frame_shape, pixel_etendue_m2_sr, scene_returns)
     from ._pattern import PixelPattern, draw_pattern, mean_pattern  # noqa: F401
     from ._returns import Returns, load_returns, save_returns  # noqa: F401
-    from ._analytic import predict  # noqa: F401
+    from ._camera import Camera, predict, simulate  # noqa: F401
     from ._background import background_irradiance_w_per_m2, background_photon_irradiance  # noqa: F401
     from ._cache import enable_compilation_cache  # noqa: F401
     from ._chain import Chain, build_chain  # noqa: F401
@@ -107,7 +107,6 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from ._config import Config, config_from_dict, default_config_text, load_config  # noqa: F401
     from ._estimate import cw_depth_noise, pulsed_depth_noise  # noqa: F401
     from ._leaves import get_leaf, set_leaves  # noqa: F401
-    from ._montecarlo import simulate  # noqa: F401
     from ._multifrequency import (  # noqa: F401
         MultiFrequencyResult, extended_range_m, fused_std, fusion_weights, predict_multifrequency,
         simulate_multifrequency, unwrap_frequencies)
@@ -116,7 +115,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from ._optics import lens, spot_area_m2  # noqa: F401
     from ._presets import PRESETS, Preset, preset_config, preset_text  # noqa: F401
     from ._params import (  # noqa: F401
-        ADC, AbstractWaveform, Camera, Illumination, IlluminationWaveform, Params, PhysicalConstants, Pixel,
+        ADC, AbstractWaveform, Illumination, IlluminationWaveform, Optics, Params, PhysicalConstants, Pixel,
         ReferenceWaveform, Scene)
     from ._result import (  # noqa: F401
         CAVEAT_COARSE_QUANTIZATION, CAVEAT_LOW_SNR, CAVEAT_NEAR_LIMIT, CAVEATS, NoiseBreakdown, Result)

@@ -8,7 +8,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ._params import Camera, Illumination, PhysicalConstants, Pixel
+from ._params import Illumination, Optics, PhysicalConstants, Pixel
 
 
 def _half_angle_tan(fov_deg: Array) -> Array:
@@ -34,7 +34,7 @@ class Lens(eqx.Module):
     diameter_m: Float[Array, ""]
 
 
-def lens(camera: Camera) -> Lens:
+def lens(camera: Optics) -> Lens:
     """Lens from the diagonal FoV, the optical area and the f-number (§4.2.5, Eq 3.10).
 
     The sensor half-diagonal subtends half the diagonal FoV: f = (diag / 2) / tan(FoV_d / 2). A

@@ -112,8 +112,9 @@ class Scene(eqx.Module):
                              "illuminance per source")
 
 
-class Camera(eqx.Module):
-    """Camera and lens, thesis Table 4.4.
+class Optics(eqx.Module):
+    """The camera's optics: lens, field of view and the pixel array's geometry, thesis Table 4.4 (the
+    ``[camera]`` section; :class:`tofjax.Camera` is the whole camera).
 
     ``pixel_pitch_m`` and ``optical_area_m`` are [x, y]; ``fov_deg`` is a diagonal FoV (shape
     ``()``) or [horizontal, vertical] (shape ``(2,)``); the lens uses the diagonal (§4.3).
@@ -233,7 +234,7 @@ class Params(eqx.Module):
 
     illumination: Illumination = eqx.field(default_factory=Illumination)
     scene: Scene = eqx.field(default_factory=Scene)
-    camera: Camera = eqx.field(default_factory=Camera)
+    camera: Optics = eqx.field(default_factory=Optics)
     pixel: Pixel = eqx.field(default_factory=Pixel)
     illumination_waveform: IlluminationWaveform = eqx.field(default_factory=IlluminationWaveform)
     reference_waveform: ReferenceWaveform = eqx.field(default_factory=ReferenceWaveform)
@@ -253,7 +254,7 @@ class Params(eqx.Module):
 SECTION_CLASSES: dict[str, type[eqx.Module]] = {
     "illumination": Illumination,
     "scene": Scene,
-    "camera": Camera,
+    "camera": Optics,
     "pixel": Pixel,
     "illumination_waveform": IlluminationWaveform,
     "reference_waveform": ReferenceWaveform,

@@ -27,7 +27,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from ._optics import lens
-from ._params import Camera
+from ._params import Optics
 from ._schema import checked_range
 
 _INF = jnp.inf
@@ -45,7 +45,7 @@ def _f64(x):
 MAX_PIXELS = 1 << 24
 
 
-def resolution(camera: Camera) -> tuple[int, int]:
+def resolution(camera: Optics) -> tuple[int, int]:
     """(rows, columns) of the pixel array: ``optical_area_m / pixel_pitch_m``, which must be whole
     numbers of pixels (within 1e-6 of one), at most :data:`MAX_PIXELS` of them (``ValueError``
     naming both keys otherwise)."""
@@ -103,13 +103,13 @@ def _grid(shape: tuple[int, int]) -> tuple[Array, Array]:
     return jnp.arange(cols, dtype=float) - 0.5 * (cols - 1), 0.5 * (rows - 1) - jnp.arange(rows, dtype=float)
 
 
-def _centres_m(camera: Camera, shape: tuple[int, int]) -> tuple[Array, Array]:
+def _centres_m(camera: Optics, shape: tuple[int, int]) -> tuple[Array, Array]:
     """Pixel centres on the array from the principal point, m: x ``(1, cols)``, y ``(rows, 1)``."""
     col, row = _grid(shape)
     return col[None, :] * camera.pixel_pitch_m[0], row[:, None] * camera.pixel_pitch_m[1]
 
 
-def _image_height(camera: Camera, shape: tuple[int, int], x: Array, y: Array) -> Array:
+def _image_height(camera: Optics, shape: tuple[int, int], x: Array, y: Array) -> Array:
     rows, cols = shape
     return jnp.hypot(x, y) / (0.5 * jnp.hypot(cols * camera.pixel_pitch_m[0], rows * camera.pixel_pitch_m[1]))
 
@@ -120,7 +120,7 @@ def _inverse_ray_length(x: Array, y: Array, f: Array) -> Array:
     return 1.0 / jnp.sqrt(x * x + y * y + f * f)
 
 
-def pixel_field(camera: Camera, shape: tuple[int, int]) -> PixelField:
+def pixel_field(camera: Optics, shape: tuple[int, int]) -> PixelField:
     """Each pixel's :class:`PixelField`, in closed form per pixel (the numbers of :func:`pixel_rays`'
     ``cos_field_angle`` and ``image_height``, without its unit vectors)."""
     f = lens(camera).focal_length_m
@@ -135,12 +135,12 @@ def _unit_rays(x: Array, y: Array, f: Array) -> Float[Array, "... 3"]:
     return jnp.stack([x * inv, y * inv, f * inv], axis=-1)
 
 
-def pixel_directions(camera: Camera, shape: tuple[int, int]) -> Float[Array, "rows cols 3"]:
+def pixel_directions(camera: Optics, shape: tuple[int, int]) -> Float[Array, "rows cols 3"]:
     """Unit rays through the pixel centres, ``(rows, cols, 3)`` (:func:`pixel_rays`' ``centre``)."""
     return _unit_rays(*_centres_m(camera, shape), lens(camera).focal_length_m)
 
 
-def pixel_rays(camera: Camera, shape: tuple[int, int], subpixel_samples: int = 1) -> Rays:
+def pixel_rays(camera: Optics, shape: tuple[int, int], subpixel_samples: int = 1) -> Rays:
     """The rays of a ``shape = (rows, cols)`` array with ``subpixel_samples`` rays per pixel and axis."""
     rows, cols = shape
     f = lens(camera).focal_length_m

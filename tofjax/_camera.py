@@ -1,0 +1,191 @@
+"""The camera as one object, and the two verbs that run it (docs/model.md, "One camera, two verbs").
+
+:class:`Camera` holds everything that describes a camera: its parameters, its frame settings (the
+array's optics and fixed-pattern sigmas), its modulation frequencies and how they are fused, an
+optional camera sample (:class:`tofjax.PixelPattern`) and an optional smooth relaxation. The verbs
+take a camera and a scene:
+
+- :func:`predict` ``(camera, scene)``: the analytic path (expected values, propagated noise);
+- :func:`simulate` ``(camera, scene, key, frames)``: Monte Carlo frames and their statistics.
+
+A scene is a :class:`tofjax.Sweep` (operating points of the centre pixel: the pixel on the optical
+axis, one return each), a :class:`tofjax.Returns` (every pixel of a frame and its returns), a
+:class:`tofjax.scenes.SceneGeometry` (ray-cast into returns) or a depth map (an array of the frame's
+shape, Z depth in metres). A camera with several frequencies fuses them (sweeps; frames take one).
+What is prepared once (a static scene exposed on the camera) is :meth:`Camera.expose`.
+
+Transitional: the earlier functions (``tj.predict(params, sweep)``, ``tj.simulate(params, sweep,
+key, iterations)``, ``predict_frame``, ``render_frame``, ``predict_multifrequency``, ...) still work
+and compute the same numbers; these verbs route to them, and the callers move here step by step.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import numpy as np
+from jaxtyping import PRNGKeyArray
+
+from ._framegeometry import FrameSettings, depth_returns, scene_returns
+from ._params import Params
+from ._pattern import PixelPattern
+from ._returns import Returns
+from ._scene import SceneGeometry
+from ._schema import FUSIONS
+from ._smooth import Smooth
+from ._sweep import Sweep
+
+
+class Camera(eqx.Module):
+    """One camera (module docstring).
+
+    **Fields:** ``params`` (:class:`tofjax.Params`); ``settings`` (:class:`tofjax.FrameSettings`,
+    the ``[frame]`` section); ``frequencies_hz`` (static: the modulation frequencies, the first
+    being ``params``'; ``()``: ``params``' own one only); ``fusion`` (static: how several
+    frequencies combine, ``illumination_waveform.frequency_fusion``); ``pattern`` (a camera sample
+    for frames, ``None``: every pixel the mean pixel); ``smooth`` (``None``: the hard limits and
+    ADC; a :class:`tofjax.Smooth`: their differentiable relaxation, analytic path).
+
+    Build it from a configuration with :meth:`from_config`, or directly: ``tj.Camera(tj.Params())``.
+    It is a pytree: ``jax.jit``, ``jax.vmap`` and ``jax.grad`` see its parameters as leaves.
+    """
+
+    params: Params = eqx.field(default_factory=Params)
+    settings: FrameSettings = eqx.field(default_factory=FrameSettings)
+    frequencies_hz: tuple[float, ...] = eqx.field(static=True, default=())
+    fusion: str = eqx.field(static=True, default="inverse_variance")
+    pattern: PixelPattern | None = None
+    smooth: Smooth | None = None
+
+    def __check_init__(self):
+        if not isinstance(self.params, Params):
+            raise TypeError(f"Camera: params must be a tofjax.Params, got {type(self.params).__name__}")
+        if not isinstance(self.settings, FrameSettings):
+            raise TypeError(f"Camera: settings must be a tofjax.FrameSettings, got {type(self.settings).__name__}")
+        if self.pattern is not None and not isinstance(self.pattern, PixelPattern):
+            raise TypeError(f"Camera: pattern must be a tofjax.PixelPattern or None, got {type(self.pattern).__name__}")
+        if self.fusion not in FUSIONS:
+            raise ValueError(f"Camera: fusion = {self.fusion!r} is not allowed: expected one of "
+                             + ", ".join(map(repr, FUSIONS)))
+        f = self.frequencies_hz
+        if f and (len(f) < 2 or len(set(f)) != len(f) or not all(x > 0 for x in f)):
+            raise ValueError(f"Camera: frequencies_hz = {list(f)} must be empty (the parameters' one) or two or more "
+                             "distinct frequencies > 0 Hz")
+
+    @classmethod
+    def from_config(cls, config, *, pattern: PixelPattern | None = None, smooth: Smooth | None = None) -> Camera:
+        """The camera of a :class:`tofjax.Config` (its parameters, ``[frame]`` settings, frequencies
+        and fusion), with an optional camera sample and smooth relaxation."""
+        freqs = tuple(float(f) for f in config.modulation_frequencies_hz)
+        fusion = config.values["illumination_waveform"]["frequency_fusion"]
+        return cls(config.params, config.frame, freqs if len(freqs) > 1 else (), fusion, pattern, smooth)
+
+    @property
+    def multifrequency(self) -> bool:
+        """Whether the camera fuses several modulation frequencies."""
+        return len(self.frequencies_hz) > 1
+
+    def returns(self, scene) -> Returns:
+        """A frame scene's :class:`tofjax.Returns`: as given, ray-cast from a
+        :class:`tofjax.scenes.SceneGeometry`, or a depth map's (Z depth, m; reflectivity 0.9)."""
+        if isinstance(scene, Returns):
+            return scene
+        if isinstance(scene, SceneGeometry):
+            return scene_returns(self.params, self.settings, scene)
+        if isinstance(scene, jax.Array | np.ndarray):
+            return depth_returns(self.params, self.settings, scene, 0.9)
+        raise TypeError(f"scene must be a tofjax.Sweep, tofjax.Returns, a tofjax.scenes.SceneGeometry or a depth map "
+                        f"(an array of the frame's shape), got {type(scene).__name__}")
+
+    def expose(self, scene):
+        """A frame scene exposed once on this camera (:class:`tofjax.PreparedFrame`): its ``predict``,
+        ``render`` and ``sample`` then cost only the chain after the exposure."""
+        from ._frame import prepare_frame
+
+        self._one_frequency("a frame")
+        return prepare_frame(self.params, self.settings, self.returns(scene), self.pattern, smooth=self.smooth)
+
+    def _one_frequency(self, what: str) -> None:
+        if self.multifrequency:
+            raise ValueError(f"{what} simulates one modulation frequency: this camera has {len(self.frequencies_hz)} "
+                             f"({', '.join(f'{f:g}' for f in self.frequencies_hz)} Hz); sweep the centre pixel instead")
+
+
+def predict(camera, scene, *, smooth: Smooth | None = None):
+    """The analytic path: expected values and standard deviations propagated through the chain.
+
+    **Arguments:** ``camera`` (:class:`tofjax.Camera`), ``scene`` (a :class:`tofjax.Sweep`: a
+    :class:`tofjax.Result`, or with several frequencies a :class:`tofjax.MultiFrequencyResult`; a
+    frame's :class:`tofjax.Returns`, :class:`tofjax.scenes.SceneGeometry` or depth map: a
+    :class:`tofjax.FrameResult`).
+
+    Transitional: ``predict(params, sweep, smooth=...)`` with a :class:`tofjax.Params` is the
+    centre-pixel function it always was (:func:`tofjax._analytic.predict`).
+    """
+    from ._analytic import predict as predict_sweep
+
+    if isinstance(camera, Params):
+        return predict_sweep(camera, scene, smooth=smooth)
+    camera = _camera(camera, smooth)
+    if isinstance(scene, Sweep):
+        if camera.multifrequency:
+            from ._multifrequency import predict_multifrequency
+
+            return predict_multifrequency(camera.params, scene, camera.frequencies_hz, fusion=camera.fusion,
+                                          smooth=camera.smooth)
+        return predict_sweep(camera.params, scene, smooth=camera.smooth)
+    from ._frame import prepare_camera
+
+    camera._one_frequency("a frame")
+    return prepare_camera(camera.params, camera.settings, camera.pattern, smooth=camera.smooth).predict(
+        camera.returns(scene))
+
+
+def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frames: int = 0, raw: bool = False,
+             progress: bool = False, smooth: Smooth | None = None, fixed_pattern: bool = False):
+    """Monte Carlo: ``frames`` noisy frames of every operating point or pixel, and their statistics.
+
+    **Arguments:** ``camera`` (:class:`tofjax.Camera`), ``scene`` (as :func:`predict`), ``key`` (a
+    ``jax.random`` key: the same key, the same frames), ``frames`` (static), ``keep_frames`` (frames
+    returned whole, static), ``raw`` (the kept frames' raw phase images too, static; one frequency),
+    ``progress`` (report the chunks to :mod:`tofjax.progress`). Returns a :class:`tofjax.Result`,
+    :class:`tofjax.MultiFrequencyResult` or :class:`tofjax.FrameResult`, as :func:`predict`.
+
+    Transitional: ``simulate(params, sweep, key, iterations, ...)`` with a :class:`tofjax.Params` is
+    the centre-pixel function it always was (:func:`tofjax._montecarlo.simulate`, with its
+    ``smooth`` and ``fixed_pattern``).
+    """
+    from ._montecarlo import simulate as simulate_sweep
+
+    if isinstance(camera, Params):
+        return simulate_sweep(camera, scene, key, frames, smooth=smooth, fixed_pattern=fixed_pattern,
+                              keep_frames=keep_frames, raw=raw, progress=progress)
+    camera = _camera(camera, smooth)
+    if fixed_pattern:
+        raise ValueError("simulate(camera, ...): fixed_pattern belongs to the earlier simulate(params, ...); a camera "
+                         "carries its sample as Camera.pattern (frames)")
+    if isinstance(scene, Sweep):
+        from ._montecarlo import check_counts
+
+        check_counts(frames, keep_frames, scene.samples, camera.params.pixel.n_phases, names=("frames", "keep_frames"),
+                     raw=raw)
+        if camera.multifrequency:
+            if raw:
+                raise ValueError("raw = True: the raw phase images of a multi-frequency sweep are not kept; "
+                                 "simulate one frequency, or frames")
+            from ._multifrequency import simulate_multifrequency
+
+            return simulate_multifrequency(camera.params, scene, key, frames, camera.frequencies_hz,
+                                           keep_frames=keep_frames, progress=progress, fusion=camera.fusion)
+        return simulate_sweep(camera.params, scene, key, frames, smooth=camera.smooth, keep_frames=keep_frames,
+                              raw=raw, progress=progress)
+    return camera.expose(scene).render(key, frames, keep_frames=keep_frames, raw=raw, progress=progress)
+
+
+def _camera(camera, smooth) -> Camera:
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera must be a tofjax.Camera (or, for the earlier sweep functions, a tofjax.Params), got "
+                        f"{type(camera).__name__}")
+    if smooth is not None:
+        raise ValueError("smooth belongs to the camera: tj.Camera(..., smooth=tj.Smooth(...))")
+    return camera
