@@ -99,3 +99,34 @@ def test_the_verbs_work_under_jit_vmap_and_grad():
 def test_bad_input_is_one_line(call, error, message):
     with pytest.raises(error, match=message):
         call(tj.Camera())
+
+
+def test_one_pattern_door_a_swept_pixel_is_the_one_pixel_frame_with_its_sample():
+    """A camera's pattern acts on sweeps as on frames: a pattern of one pixel (tj.draw_pattern(...,
+    (1, 1))) makes the swept centre pixel that pixel, and a sweep equals the frame of one pixel on
+    the axis looking at a wall, to rounding: gain, dark slopes, phase offset, tap asymmetry and full
+    well all act. A pattern of several pixels is refused for a sweep; fixed_pattern and pattern
+    together too."""
+    config = tj.config_from_dict({"frame": {"prnu_sigma": 0.1, "phase_offset_sigma_rad": 0.2, "subpixel_samples": 1,
+                                            "tap_asymmetry_sigma": 0.05, "threshold_sigma": 0.1, "seed": 3}})
+    params = eqx.tree_at(lambda p: p.camera.optical_area_m, config.params, jnp.array([PITCH, PITCH]))  # 1 x 1
+    settings = config.frame
+    pattern = tj.draw_pattern(params, settings, (1, 1))
+    assert abs(float(pattern.gain[0, 0]) - 1) > 0.01 and abs(float(pattern.phase_offset_rad[0, 0])) > 0.01
+    camera = tj.Camera(params, settings, pattern=pattern)
+    d = 1.3
+    frame = tj.predict(camera, np.full((1, 1), d)).result
+    swept = tj.predict(camera, tj.Sweep("distance", [d]))
+    mean = tj.predict(tj.Camera(params, settings), tj.Sweep("distance", [d]))
+    for field in ("tap_a_e", "tap_b_e", "depth_mean_m", "depth_std_m", "amplitude_mean_lsb", "intensity_e",
+                  "full_well_fraction"):
+        np.testing.assert_allclose(np.asarray(getattr(swept, field))[0], np.asarray(getattr(frame, field))[0, 0],
+                                   rtol=1e-12, err_msg=field)
+        assert not np.allclose(getattr(swept, field), getattr(mean, field), rtol=1e-6), field  # the pattern acts
+    mc = tj.simulate(camera, tj.Sweep("distance", [d]), jax.random.key(0), 400)
+    np.testing.assert_allclose(mc.depth_mean_m, swept.depth_mean_m, atol=5 * float(swept.depth_std_m[0]) / 20)
+    big = tj.Camera(tj.Params(), pattern=tj.draw_pattern(tj.Params(), settings, (2, 2)))
+    with pytest.raises(ValueError, match=r"^a sweep's pixel sample is a pattern of one pixel, got \(2, 2\)"):
+        tj.predict(big, SWEEP)
+    with pytest.raises(ValueError, match=r"^give fixed_pattern or pattern, not both"):
+        tj.simulate(params, SWEEP, jax.random.key(0), 8, fixed_pattern=True, pattern=pattern)

@@ -6,29 +6,17 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import fd_check
+from helpers import fd_check, split_between_taps
 
 import tofjax
 from tofjax._correlation import N_TABLE, _spectral_table, correlation, correlation_coefficients, series
 from tofjax._waveforms import phase_steps
-from tofjax._charges import Exposure
 
 WAVEFORMS = [("pulse", 0.5, "pulse", 0.5), ("pulse", 0.25, "pulse", 0.5), ("sine", 1.0, "sine", 1.0),
              ("sine", 0.4, "pulse", 0.5), ("triangle", 0.3, "gauss_extended", 0.5), ("sawtooth", 0.3, "pulse", 0.5),
              ("gauss_extended", 0.25, "gauss_extended", 0.5), ("fourier", 0.25, "triangle", 0.6),
              ("pulse", 0.05, "pulse", 0.5)]
 DELAYS = np.random.default_rng(0).uniform(0.0, 3.0, 1001)  # random, so between the grid points
-
-def split_between_taps(fraction_a, contrast, active_e, background_e):
-    """The tap split of the one exposure (tofjax._charges.Exposure.charges): photo-electrons of taps A
-    and B from the correlation fractions a_j (Eqs 3.19-3.21)."""
-    active_e, background_e = jnp.asarray(active_e, dtype=float), jnp.asarray(background_e, dtype=float)
-    contrast = jnp.asarray(contrast, dtype=float)
-    zero = jnp.zeros(active_e.shape)
-    q = Exposure(contrast * active_e[..., None] * fraction_a, active_e, background_e, contrast, jnp.zeros(()),
-                 zero, zero).charges()
-    return q.photo_a, q.photo_b
-
 
 
 def _waves(ill, ill_duty, ref, ref_duty):

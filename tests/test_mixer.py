@@ -5,22 +5,11 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import split_between_taps
 
 import tofjax
 from tofjax._chain import build_chain
 from tofjax._correlation import correlation
-from tofjax._charges import Exposure
-
-def split_between_taps(fraction_a, contrast, active_e, background_e):
-    """The tap split of the one exposure (tofjax._charges.Exposure.charges): photo-electrons of taps A
-    and B from the correlation fractions a_j (Eqs 3.19-3.21)."""
-    active_e, background_e = jnp.asarray(active_e, dtype=float), jnp.asarray(background_e, dtype=float)
-    contrast = jnp.asarray(contrast, dtype=float)
-    zero = jnp.zeros(active_e.shape)
-    q = Exposure(contrast * active_e[..., None] * fraction_a, active_e, background_e, contrast, jnp.zeros(()),
-                 zero, zero).charges()
-    return q.photo_a, q.photo_b
-
 
 
 def _params(ref="pulse", ref_duty=0.5, ill="pulse", ill_duty=0.5, n=4):

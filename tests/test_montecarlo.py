@@ -12,7 +12,8 @@ import tofjax as tj
 from tofjax import _rician
 from tofjax._chain import build_chain
 from tofjax._frames import draw_frames
-from tofjax._montecarlo import monte_carlo, pixel_dark_slopes, prepare
+from tofjax._montecarlo import monte_carlo, prepare
+from tofjax._pattern import pixel_dark_slopes
 from tofjax._noise import AFTER_LIMIT, BEFORE_LIMIT
 from tofjax._random import key_words
 

@@ -23,6 +23,7 @@ from ._noise import AFTER_LIMIT, BEFORE_LIMIT
 from ._params import Params
 from ._reduce import max_last, mean_last
 from ._result import CAVEAT_COARSE_QUANTIZATION, CAVEAT_LOW_SNR, CAVEAT_NEAR_LIMIT, Result, snr_db
+from ._pattern import PixelPattern, one_pixel
 from ._smooth import Smooth
 from ._sweep import Sweep, check_inputs, pad_sweep, unpad
 
@@ -143,7 +144,8 @@ def analytic(chain: Chain, sweep: Sweep, m: Moments | None = None) -> Result:
     )
 
 
-def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None) -> Result:
+def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None, pattern: PixelPattern | None = None
+            ) -> Result:
     """Analytic prediction: expected signals, and standard deviations propagated from the noise
     variances through the chain, in closed form (module docstring).
 
@@ -161,6 +163,9 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None) -> Re
     - ``sweep``: the operating points (:class:`tofjax.Sweep`; any shape).
     - ``smooth``: ``None`` (default) for the hard saturation and ADC, or a :class:`tofjax.Smooth`
       with temperatures for a differentiable relaxation.
+    - ``pattern``: the swept pixel's own parameters, a :class:`tofjax.PixelPattern` of one pixel
+      (``tj.draw_pattern(params, settings, (1, 1))``: its gain, dark slopes, phase offset, tap
+      asymmetry and full well, as a frame's pixel has them); ``None``: the mean pixel.
 
     **Returns:** a :class:`tofjax.Result` with ``method = "analytic"`` and no per-frame fields.
 
@@ -170,8 +175,9 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None) -> Re
     sweep runs as it is: the caller's program is compiled for its shapes once anyway.
     """
     check_inputs(params, sweep)
-    padded = sweep if _jit.traced((params, sweep, smooth)) else pad_sweep(sweep)
-    chain, charges = _predict_exposure(params, padded, smooth)
+    sample = one_pixel(pattern)
+    padded = sweep if _jit.traced((params, sweep, smooth, sample)) else pad_sweep(sweep)
+    chain, charges = _predict_exposure(params, padded, smooth, sample)
     m = _predict_moments(chain, padded, charges)
     return unpad(_predict_result(chain, padded, m), sweep, padded)
 
@@ -181,8 +187,8 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None) -> Re
 # once per output of the next stage: 2x slower at 1e5 points. Under an outer jit (calibration, user
 # code) the three are traced into one program as usual.
 @_jit.jit
-def _predict_exposure(params: Params, sweep: Sweep, smooth: Smooth | None) -> tuple[Chain, TapCharges]:
-    chain = build_chain(params, smooth, sweep.samples)
+def _predict_exposure(params: Params, sweep: Sweep, smooth: Smooth | None, sample=None) -> tuple[Chain, TapCharges]:
+    chain = build_chain(params, smooth, sweep.samples, sample)
     d, ev, t = sweep.operating_points(params.scene)
     return chain, chain.expose(d, ev, t)
 

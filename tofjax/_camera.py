@@ -43,8 +43,9 @@ class Camera(eqx.Module):
     the ``[frame]`` section); ``frequencies_hz`` (static: the modulation frequencies, the first
     being ``params``'; ``()``: ``params``' own one only); ``fusion`` (static: how several
     frequencies combine, ``illumination_waveform.frequency_fusion``); ``pattern`` (a camera sample
-    for frames, ``None``: every pixel the mean pixel); ``smooth`` (``None``: the hard limits and
-    ADC; a :class:`tofjax.Smooth`: their differentiable relaxation, analytic path).
+    for frames, or of one pixel, ``(1, 1)``, the swept pixel's own sample for sweeps; ``None``:
+    every pixel the mean pixel); ``smooth`` (``None``: the hard limits and ADC; a
+    :class:`tofjax.Smooth`: their differentiable relaxation, analytic path).
 
     Build it from a configuration with :meth:`from_config`, or directly: ``tj.Camera(tj.Params())``.
     It is a pytree: ``jax.jit``, ``jax.vmap`` and ``jax.grad`` see its parameters as leaves.
@@ -105,13 +106,18 @@ class Camera(eqx.Module):
         self._one_frequency("a frame")
         return prepare_frame(self.params, self.settings, self.returns(scene), self.pattern, smooth=self.smooth)
 
+    def _no_pattern(self, what: str) -> None:
+        if self.pattern is not None:
+            raise ValueError(f"{what} runs the mean pixel: this camera has a pattern (Camera.pattern), which it would "
+                             "not honour; drop it, or sweep one frequency")
+
     def _one_frequency(self, what: str) -> None:
         if self.multifrequency:
             raise ValueError(f"{what} simulates one modulation frequency: this camera has {len(self.frequencies_hz)} "
                              f"({', '.join(f'{f:g}' for f in self.frequencies_hz)} Hz); sweep the centre pixel instead")
 
 
-def predict(camera, scene, *, smooth: Smooth | None = None):
+def predict(camera, scene, *, smooth: Smooth | None = None, pattern: PixelPattern | None = None):
     """The analytic path: expected values and standard deviations propagated through the chain.
 
     **Arguments:** ``camera`` (:class:`tofjax.Camera`), ``scene`` (a :class:`tofjax.Sweep`: a
@@ -119,21 +125,22 @@ def predict(camera, scene, *, smooth: Smooth | None = None):
     frame's :class:`tofjax.Returns`, :class:`tofjax.scenes.SceneGeometry` or depth map: a
     :class:`tofjax.FrameResult`).
 
-    Transitional: ``predict(params, sweep, smooth=...)`` with a :class:`tofjax.Params` is the
-    centre-pixel function it always was (:func:`tofjax._analytic.predict`).
+    Transitional: ``predict(params, sweep, smooth=..., pattern=...)`` with a :class:`tofjax.Params`
+    is the centre-pixel function it always was (:func:`tofjax._analytic.predict`).
     """
     from ._analytic import predict as predict_sweep
 
     if isinstance(camera, Params):
-        return predict_sweep(camera, scene, smooth=smooth)
-    camera = _camera(camera, smooth)
+        return predict_sweep(camera, scene, smooth=smooth, pattern=pattern)
+    camera = _camera(camera, smooth, pattern)
     if isinstance(scene, Sweep):
         if camera.multifrequency:
+            camera._no_pattern("a multi-frequency sweep")
             from ._multifrequency import predict_multifrequency
 
             return predict_multifrequency(camera.params, scene, camera.frequencies_hz, fusion=camera.fusion,
                                           smooth=camera.smooth)
-        return predict_sweep(camera.params, scene, smooth=camera.smooth)
+        return predict_sweep(camera.params, scene, smooth=camera.smooth, pattern=camera.pattern)
     from ._frame import prepare_camera
 
     camera._one_frequency("a frame")
@@ -142,7 +149,8 @@ def predict(camera, scene, *, smooth: Smooth | None = None):
 
 
 def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frames: int = 0, raw: bool = False,
-             progress: bool = False, smooth: Smooth | None = None, fixed_pattern: bool = False):
+             progress: bool = False, smooth: Smooth | None = None, fixed_pattern: bool = False,
+             pattern: PixelPattern | None = None):
     """Monte Carlo: ``frames`` noisy frames of every operating point or pixel, and their statistics.
 
     **Arguments:** ``camera`` (:class:`tofjax.Camera`), ``scene`` (as :func:`predict`), ``key`` (a
@@ -153,14 +161,14 @@ def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frame
 
     Transitional: ``simulate(params, sweep, key, iterations, ...)`` with a :class:`tofjax.Params` is
     the centre-pixel function it always was (:func:`tofjax._montecarlo.simulate`, with its
-    ``smooth`` and ``fixed_pattern``).
+    ``smooth``, ``fixed_pattern`` and ``pattern``).
     """
     from ._montecarlo import simulate as simulate_sweep
 
     if isinstance(camera, Params):
-        return simulate_sweep(camera, scene, key, frames, smooth=smooth, fixed_pattern=fixed_pattern,
+        return simulate_sweep(camera, scene, key, frames, smooth=smooth, fixed_pattern=fixed_pattern, pattern=pattern,
                               keep_frames=keep_frames, raw=raw, progress=progress)
-    camera = _camera(camera, smooth)
+    camera = _camera(camera, smooth, pattern)
     if fixed_pattern:
         raise ValueError("simulate(camera, ...): fixed_pattern belongs to the earlier simulate(params, ...); a camera "
                          "carries its sample as Camera.pattern (frames)")
@@ -170,6 +178,7 @@ def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frame
         check_counts(frames, keep_frames, scene.samples, camera.params.pixel.n_phases, names=("frames", "keep_frames"),
                      raw=raw)
         if camera.multifrequency:
+            camera._no_pattern("a multi-frequency sweep")
             if raw:
                 raise ValueError("raw = True: the raw phase images of a multi-frequency sweep are not kept; "
                                  "simulate one frequency, or frames")
@@ -177,15 +186,16 @@ def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frame
 
             return simulate_multifrequency(camera.params, scene, key, frames, camera.frequencies_hz,
                                            keep_frames=keep_frames, progress=progress, fusion=camera.fusion)
-        return simulate_sweep(camera.params, scene, key, frames, smooth=camera.smooth, keep_frames=keep_frames,
-                              raw=raw, progress=progress)
+        return simulate_sweep(camera.params, scene, key, frames, smooth=camera.smooth, pattern=camera.pattern,
+                              keep_frames=keep_frames, raw=raw, progress=progress)
     return camera.expose(scene).render(key, frames, keep_frames=keep_frames, raw=raw, progress=progress)
 
 
-def _camera(camera, smooth) -> Camera:
+def _camera(camera, smooth, pattern) -> Camera:
     if not isinstance(camera, Camera):
         raise TypeError(f"camera must be a tofjax.Camera (or, for the earlier sweep functions, a tofjax.Params), got "
                         f"{type(camera).__name__}")
-    if smooth is not None:
-        raise ValueError("smooth belongs to the camera: tj.Camera(..., smooth=tj.Smooth(...))")
+    for name, value in (("smooth", smooth), ("pattern", pattern)):
+        if value is not None:
+            raise ValueError(f"{name} belongs to the camera: tj.Camera(..., {name}=...)")
     return camera

@@ -25,6 +25,7 @@ from ._charges import TapCharges
 from ._mixer import expose
 from ._noise import NoiseBudget
 from ._params import Params
+from ._pattern import PixelPattern
 from ._saturation import AbstractLimit, full_well_e, limit_stage
 from ._smooth import Smooth
 
@@ -39,7 +40,9 @@ class Chain(eqx.Module):
 
     **Fields:** ``params`` (the camera), ``correlation`` (the mixer's table), ``noise`` (the noise
     budget), ``limit`` (:class:`~tofjax._saturation.SBI` or :class:`~tofjax._saturation.Saturation`),
-    ``readout`` (:class:`~tofjax._adc.Readout`).
+    ``readout`` (:class:`~tofjax._adc.Readout`), ``sample`` (the swept pixel's own parameters, a
+    :class:`tofjax.PixelPattern` of scalars or of the sweep's shape: its gain, dark slopes, phase
+    offset, tap asymmetry, full well; ``None``: the mean pixel).
     """
 
     params: Params
@@ -47,6 +50,7 @@ class Chain(eqx.Module):
     noise: NoiseBudget
     limit: AbstractLimit
     readout: Readout
+    sample: PixelPattern | None = None
 
     @property
     def n_phases(self) -> int:
@@ -58,9 +62,10 @@ class Chain(eqx.Module):
 
     def expose(self, distance_m: Float[Array, "*b"], illuminance_lx: Float[Array, "*b"],
                integration_time_s: Float[Array, "*b"], dark_slopes_v_per_s=None) -> TapCharges:
-        """Expected tap charges at the operating points (:func:`tofjax._mixer.expose`)."""
+        """Expected tap charges at the operating points (:func:`tofjax._mixer.expose`), of the chain's
+        pixel sample if it has one."""
         return expose(self.params, self.correlation, distance_m, illuminance_lx, integration_time_s,
-                      dark_slopes_v_per_s)
+                      dark_slopes_v_per_s, self.sample)
 
     def tap_volts(self, held_a: Array, held_b: Array) -> tuple[Array, Array]:
         """Tap voltages V = V_reset - n e / C_int of held charges."""
@@ -69,16 +74,20 @@ class Chain(eqx.Module):
         return v_reset - held_a / per_volt, v_reset - held_b / per_volt
 
 
-def build_chain(params: Params, smooth: Smooth | None = None, points: int | None = None) -> Chain:
+def build_chain(params: Params, smooth: Smooth | None = None, points: int | None = None,
+                sample: PixelPattern | None = None) -> Chain:
     """The chain of camera ``params``; ``smooth`` relaxes the limits and the ADC (``None``: hard);
     ``points``, the number of operating points of the call, chooses how the mixer's correlation is
-    evaluated (a table, or the series for a few points; ``None``: a table)."""
+    evaluated (a table, or the series for a few points; ``None``: a table); ``sample``: the swept
+    pixel's own parameters (:class:`Chain`; its full well scales the limit's)."""
     per_volt = electrons_per_volt(params)
     pixel = params.pixel
     well = full_well_e(pixel.v_reset_v, pixel.v_saturated_v, per_volt, pixel.full_well_e)
+    if sample is not None:
+        well = well * sample.full_well_scale
     temperature_e = None if smooth is None else smooth.saturation_temperature_v * per_volt
     limit = limit_stage(well, pixel.sbi, temperature_e)
     readout = Readout(params.adc, per_volt, None if smooth is None else smooth.adc_temperature_lsb)
     table = correlation(params.illumination_waveform, params.reference_waveform, pixel.n_phases,
                         tabulate=points is None or points > SERIES_POINTS)
-    return Chain(params, table, NoiseBudget.from_params(params), limit, readout)
+    return Chain(params, table, NoiseBudget.from_params(params), limit, readout, sample)

@@ -15,8 +15,9 @@ phase image (a real branch, not a select), any other block both sets and keeps e
 
 Sums. Each chunk of frames is reduced to per-point sums (valid frames, phase deviations and their
 squares, amplitudes and squares, flags, codes) before the next is drawn (:mod:`tofjax._executor`).
-Deviations are taken from the noise-free frame's phase and amplitude (a fixed centre close to the mean), which keeps the sums of
-squares well conditioned and makes a noise-free run's standard deviation exactly 0.
+Deviations are taken from the noise-free frame's phase and amplitude (a fixed centre close to the
+mean), which keeps the sums of squares well conditioned and makes a noise-free run's standard
+deviation exactly 0.
 """
 
 from __future__ import annotations
@@ -67,7 +68,7 @@ class PointCharges(eqx.Module):
     the frame's own loop instead of writing eight ``(phases, points)`` arrays first and reading them
     back (one frame of 640 x 480: 31 ms as constants then frames, 14 ms so; 224 x 172: 3.2 and 2.2 ms).
 
-    **Fields:** ``exposed``: what makes the points' :class:`~tofjax._mixer.TapCharges` with its
+    **Fields:** ``exposed``: what makes the points' :class:`~tofjax._charges.TapCharges` with its
     ``charges()``, flattened ``(points, ...)``: the charges themselves, or a frame's
     :class:`~tofjax._charges.Exposure` (then the taps' charges, too, are made inside the branch,
     from the program's input, and nothing of them is written out); ``index``, ``full_well_e``: as
@@ -172,7 +173,7 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
     def split_after(c, held_a, held_b, after, w3):
         """The taps as read, from the held charges and the differential's noise after the limit."""
         post_a = c.sd_after_a**2
-        post_b = c.sd_after**2 - post_a
+        post_b = jnp.maximum(c.sd_after**2 - post_a, 0.0)  # not below 0 by rounding
         total = _nonzero(post_a + post_b)
         after_a = col(post_a / total) * after + col(jnp.sqrt(post_a * post_b / total)) * w3
         return held_a + after_a, held_b + after_a - after

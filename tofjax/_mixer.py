@@ -22,6 +22,7 @@ from ._correlation import Correlation
 from ._framegeometry import FrameSettings, pixel_etendue_m2_sr
 from ._noise import dark_electrons
 from ._params import Params
+from ._pattern import PixelPattern
 from ._photometry import active_e_per_radiance, background_e_per_reflectivity
 from ._returns import axis_return
 from ._scene import PixelField
@@ -35,20 +36,28 @@ def axis_etendue_m2_sr(params: Params, settings: FrameSettings) -> Array:
 
 def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*b"],
            illuminance_lx: Float[Array, "*b"], integration_time_s: Float[Array, "*b"],
-           dark_slopes_v_per_s: tuple[Array, Array] | None = None) -> TapCharges:
+           dark_slopes_v_per_s: tuple[Array, Array] | None = None, sample: PixelPattern | None = None) -> TapCharges:
     """Expected tap electrons at every operating point (module docstring).
 
-    ``dark_slopes_v_per_s``: the taps' own dark slopes (a fixed-pattern pixel), else the mean slope.
+    ``dark_slopes_v_per_s``: the taps' own dark slopes (``simulate(..., fixed_pattern=True)``);
+    ``sample``: the pixel's own parameters (:class:`tofjax.PixelPattern` of scalars or of the
+    sweep's shape), as a frame's pixel has them: its gain on the etendue, its phase offset on the
+    delay, its tap asymmetry and dark slopes (its full well is the chain's). ``None``: the mean pixel.
     """
     settings = FrameSettings()  # the thesis' centre pixel: a uniform spot
     consts, reflectivity = params.constants, params.scene.reflectivity
     etendue = axis_etendue_m2_sr(params, settings)
+    if sample is not None:
+        etendue = etendue * sample.gain
+        dark_slopes_v_per_s = (sample.dark_slope_a_v_per_s, sample.dark_slope_b_v_per_s)
     radiance, path_m = axis_return(params.illumination, settings.illumination_falloff_exponent, reflectivity,
                                    distance_m)
     signal = radiance * active_e_per_radiance(params, etendue, integration_time_s)
     background = reflectivity * background_e_per_reflectivity(params, etendue, illuminance_lx, integration_time_s)
     # The reflected phase 2 pi f path / c (Eq 3.22: 4 pi f d / c on the axis) in periods.
     delay = params.illumination_waveform.modulation_frequency_hz * path_m / consts.speed_of_light_m_per_s
+    if sample is not None:  # the pixel's demodulation phase offset, as a frame's pixel has it
+        delay = delay + sample.phase_offset_rad / (2.0 * jnp.pi)
     contrast = params.pixel.demodulation_contrast
     if dark_slopes_v_per_s is None:
         dark_a = dark_b = dark_electrons(params.pixel, integration_time_s, consts)
@@ -56,4 +65,5 @@ def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*
         dark_a = dark_electrons(params.pixel, integration_time_s, consts, dark_slopes_v_per_s[0])
         dark_b = dark_electrons(params.pixel, integration_time_s, consts, dark_slopes_v_per_s[1])
     modulated = contrast * signal[..., None] * correlation(delay)
-    return Exposure(modulated, signal, background, contrast, jnp.zeros(()), dark_a, dark_b).charges()
+    asymmetry = jnp.zeros(()) if sample is None else sample.tap_asymmetry
+    return Exposure(modulated, signal, background, contrast, asymmetry, dark_a, dark_b).charges()

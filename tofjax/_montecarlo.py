@@ -17,22 +17,12 @@ from ._executor import BLOCK_POINTS, CHUNK_ELEMENTS, execute, run_blocks
 from ._frames import PointConstants, Sums, draw_frames, frame_statistics, point_constants, reduce_frames
 from ._charges import TapCharges
 from ._params import Params
+from ._pattern import PixelPattern, one_pixel, pixel_dark_slopes
 from ._random import key_words
 from ._reduce import mean_last
 from ._result import Result, snr_db
 from ._smooth import Smooth
 from ._sweep import Sweep, check_inputs
-
-
-def pixel_dark_slopes(params: Params, key: PRNGKeyArray, pixels: tuple[int, ...] = ()) -> Array:
-    """Dark slopes (V/s) of taps A and B, ``(2, *pixels)``, drawn from the population: a gamma
-    distribution (positive) with the configured mean and pixel-to-pixel sigma (the dark-signal
-    non-uniformity); ``pixels``: the shape of an array of pixels (``()``: one pixel)."""
-    mean, sigma = params.pixel.dark_slope_mean_v_per_s, params.pixel.dark_slope_sigma_v_per_s
-    ok = (mean > 0) & (sigma > 0)
-    shape = jnp.where(ok, mean**2 / jnp.where(ok, sigma, 1.0) ** 2, 1.0)
-    draw = jr.gamma(key, shape, (2, *pixels)) * jnp.where(ok, sigma**2 / jnp.where(ok, mean, 1.0), 0.0)
-    return jnp.where(ok, draw, mean)
 
 
 #: The most memory the kept frames of one call may take (:func:`simulate`'s ``keep_frames``); the
@@ -179,6 +169,7 @@ def simulate(
     *,
     smooth: Smooth | None = None,
     fixed_pattern: bool = False,
+    pattern: PixelPattern | None = None,
     keep_frames: int = 0,
     raw: bool = False,
     progress: bool = False,
@@ -200,6 +191,8 @@ def simulate(
     - ``smooth``: ``None`` for the hard mode, or :class:`tofjax.Smooth` temperatures.
     - ``fixed_pattern``: if true, the taps' dark slopes are drawn once (per key) from the
       pixel population (mean, sigma of ``pixel.dark_slope_*``) instead of taking the mean pixel.
+    - ``pattern``: the swept pixel's own parameters, a :class:`tofjax.PixelPattern` of one pixel
+      (as :func:`tofjax.predict`'s); ``None``: the mean pixel (or ``fixed_pattern``'s slopes).
     - ``keep_frames``: how many frames of each point to return whole (``codes``, ``phase_rad``,
       ``depth_m``, ...; static, 0 .. ``iterations``); the statistics always use every frame.
     - ``raw``: the kept frames carry their whole raw phase images, both taps' electrons as read
@@ -214,31 +207,36 @@ def simulate(
     """
     check_inputs(params, sweep)
     check_counts(iterations, keep_frames, sweep.samples, params.pixel.n_phases, raw=raw)
-    return execute(_setup, _consts, _finish, (params, sweep, key, smooth, fixed_pattern, raw, iterations),
+    sample = one_pixel(pattern)
+    if fixed_pattern and sample is not None:
+        raise ValueError("give fixed_pattern or pattern, not both: fixed_pattern draws the taps' dark slopes from the "
+                         "key, pattern is the pixel's whole sample")
+    return execute(_setup, _consts, _finish, (params, sweep, key, smooth, fixed_pattern, sample, raw, iterations),
                    points=sweep.samples, frames=iterations, keep=keep_frames, phases=params.pixel.n_phases,
                    progress=progress)
 
 
-def _run_inputs(params, sweep, key, smooth, fixed_pattern):
-    """The run's chain, its frames' key and the taps' dark slopes (``None``: the mean pixel)."""
+def _run_inputs(params, sweep, key, smooth, fixed_pattern, sample=None):
+    """The run's chain (of the pixel ``sample``, if given), its frames' key and the taps' dark slopes
+    of ``fixed_pattern`` (``None``: the mean pixel's, or the sample's)."""
     pattern_key, key = jr.split(key)
     slopes = pixel_dark_slopes(params, pattern_key) if fixed_pattern else None
-    return build_chain(params, smooth, sweep.samples), key, slopes
+    return build_chain(params, smooth, sweep.samples, sample), key, slopes
 
 
 @_jit.jit
-def _setup(params, sweep, key, smooth, fixed_pattern, raw, iterations):
+def _setup(params, sweep, key, smooth, fixed_pattern, sample, raw, iterations):
     """:func:`simulate`'s run (:func:`tofjax._executor.execute`): the chain and the expected charges
     and frames' constants (carried to :func:`_finish`), and the chunk step."""
-    chain, key, slopes = _run_inputs(params, sweep, key, smooth, fixed_pattern)
+    chain, key, slopes = _run_inputs(params, sweep, key, smooth, fixed_pattern, sample)
     return (chain, prepare(chain, sweep, slopes)), frames_step(chain, key_words(key), raw=raw)
 
 
-def _consts(params, sweep, key, smooth, fixed_pattern, raw, iterations, carry) -> PointConstants:
+def _consts(params, sweep, key, smooth, fixed_pattern, sample, raw, iterations, carry) -> PointConstants:
     return carry[1].consts
 
 
 @_jit.jit
-def _finish(params, sweep, key, smooth, fixed_pattern, raw, iterations, carry, sums, kept) -> Result:
+def _finish(params, sweep, key, smooth, fixed_pattern, sample, raw, iterations, carry, sums, kept) -> Result:
     chain, prepared = carry
     return assemble(chain, sweep, prepared, sums, kept, iterations)

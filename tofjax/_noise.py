@@ -5,7 +5,7 @@ Every source is one small class that states
 - where it acts: :data:`BEFORE_LIMIT` (on a tap's collected charge, before SBI and saturation) or
   :data:`AFTER_LIMIT` (on the held charge, after them);
 - its variance per tap and phase image, in electrons^2 at the integration node, from the expected
-  charges (:class:`tofjax._mixer.TapCharges`);
+  charges (:class:`tofjax._charges.TapCharges`);
 - how it is sampled: Gaussian, independent per tap, phase image and frame. Sources acting at one node
   are independent Gaussians, so the Monte Carlo draws their sum once per tap and node.
 

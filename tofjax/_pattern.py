@@ -19,12 +19,23 @@ factor above 0.25; the truncation changes a sigma by 1.5e-5 of itself).
 from __future__ import annotations
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import jax.random as jr
 from jaxtyping import Array, Float, PRNGKeyArray
 
-from ._montecarlo import pixel_dark_slopes
 from ._params import Params
+
+
+def pixel_dark_slopes(params: Params, key: PRNGKeyArray, pixels: tuple[int, ...] = ()) -> Array:
+    """Dark slopes (V/s) of taps A and B, ``(2, *pixels)``, drawn from the population: a gamma
+    distribution (positive) with the configured mean and pixel-to-pixel sigma (the dark-signal
+    non-uniformity); ``pixels``: the shape of an array of pixels (``()``: one pixel)."""
+    mean, sigma = params.pixel.dark_slope_mean_v_per_s, params.pixel.dark_slope_sigma_v_per_s
+    ok = (mean > 0) & (sigma > 0)
+    shape = jnp.where(ok, mean**2 / jnp.where(ok, sigma, 1.0) ** 2, 1.0)
+    draw = jr.gamma(key, shape, (2, *pixels)) * jnp.where(ok, sigma**2 / jnp.where(ok, mean, 1.0), 0.0)
+    return jnp.where(ok, draw, mean)
 
 
 class PixelPattern(eqx.Module):
@@ -36,6 +47,21 @@ class PixelPattern(eqx.Module):
     phase_offset_rad: Float[Array, "rows cols"]
     tap_asymmetry: Float[Array, "rows cols"]
     full_well_scale: Float[Array, "rows cols"]
+
+
+def one_pixel(pattern: PixelPattern | None) -> PixelPattern | None:
+    """A pattern of one pixel (``(1, 1)``, ``(1,)`` or scalars) as scalars: the swept pixel's own
+    parameters (the centre pixel's sample); ``None`` stays ``None``. Refuses a pattern of several
+    pixels in one line."""
+    if pattern is None:
+        return None
+    if not isinstance(pattern, PixelPattern):
+        raise TypeError(f"pattern must be a tofjax.PixelPattern or None, got {type(pattern).__name__}")
+    size = jnp.size(pattern.gain)
+    if size != 1:
+        raise ValueError(f"a sweep's pixel sample is a pattern of one pixel, got {jnp.shape(pattern.gain)}: draw it "
+                         "with tj.draw_pattern(params, settings, (1, 1))")
+    return jax.tree_util.tree_map(lambda x: jnp.reshape(x, ()), pattern)
 
 
 def mean_pattern(params: Params, shape: tuple[int, int]) -> PixelPattern:

@@ -394,16 +394,18 @@ def surface(geometry: SceneGeometry, rays: Rays, sun_direction=None) -> Surface:
 def surface_from_depth(depth_m, reflectivity, rays: Rays, radial: bool = False) -> Surface:
     """A surface from a depth map ``(rows, cols)``: Z depth (``radial=False``) or radial distance
     along each pixel's ray, and a reflectivity map (or a number). One ray per pixel; normals from
-    the map's finite differences (central inside, one-sided at the border), facing the camera;
-    non-finite or non-positive depths are misses."""
+    the map's finite differences (central inside, one-sided at the border), facing the camera; along
+    an axis of one pixel (a map of one row, column or pixel) the surface is taken as facing the
+    optical axis there; non-finite or non-positive depths are misses."""
     depth = _f64(depth_m)
     d = rays.centre
     t = depth if radial else depth / d[..., 2]
     ok = jnp.isfinite(t) & (t > 0.0)
     t = jnp.where(ok, t, _INF)
     p = jnp.where(ok, t, 0.0)[..., None] * d
-    du = jnp.gradient(p, axis=1)
-    dv = jnp.gradient(p, axis=0)
+    # The map's derivatives; along an axis of one pixel none exists: a frontal surface's (x, resp. y).
+    du = jnp.gradient(p, axis=1) if p.shape[1] > 1 else jnp.broadcast_to(jnp.array([1.0, 0.0, 0.0]), p.shape)
+    dv = jnp.gradient(p, axis=0) if p.shape[0] > 1 else jnp.broadcast_to(jnp.array([0.0, 1.0, 0.0]), p.shape)
     n = jnp.cross(du, dv)
     n = n / jnp.maximum(jnp.sqrt(dot3(n, n)), 1e-300)[..., None]
     n = _facing(n, d)

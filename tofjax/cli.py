@@ -1,5 +1,6 @@
 """The ``tofjax`` command: ``simulate`` and ``config``, plus the subcommands registered beside them
-(``render`` from :mod:`tofjax.render_cli`, ``calibrate`` and ``compare`` from ``fitting``, ``record`` from ``measurements``).
+(``render`` from :mod:`tofjax.render_cli`, ``calibrate`` and ``compare`` from ``fitting``,
+``record`` from ``measurements``).
 
 Those register through the entry-point group ``tofjax.commands``: each entry point is a function
 ``register(subparsers)`` that adds its parser and sets ``run=handler`` (``handler(args) -> int``).
