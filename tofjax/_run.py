@@ -1,8 +1,9 @@
 """One sweep run from a configuration, as ``tofjax simulate`` and the explorer do it.
 
-Picks the path from the configuration and the method: several modulation frequencies -> Monte
-Carlo per frequency and unwrapping by agreement (§2.2); otherwise Monte Carlo (:func:`simulate`)
-or analytic (:func:`predict`). Results come back on the host, with the wall time of the run.
+The configuration's camera (:class:`tofjax.Camera`) and one of the two verbs: Monte Carlo
+(:func:`tofjax.simulate`) or analytic (:func:`tofjax.predict`); the verbs decide the path (several
+modulation frequencies: per frequency and fused, §2.2). Results come back on the host, with the wall
+time of the run.
 """
 
 from __future__ import annotations
@@ -14,10 +15,10 @@ import time
 import jax
 import numpy as np
 
+from ._camera import Camera, predict, simulate
 from ._config import Config
-from ._analytic import predict
-from ._montecarlo import max_keep_frames, simulate
-from ._multifrequency import MultiFrequencyResult, predict_multifrequency, simulate_multifrequency
+from ._montecarlo import max_keep_frames
+from ._multifrequency import MultiFrequencyResult
 from ._result import Result
 from ._sweep import Sweep
 
@@ -61,26 +62,20 @@ def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int 
     if problem:
         raise ValueError(f"fixed_pattern = True {problem}")
     iterations = config.iterations if iterations is None else iterations
-    params, freqs = config.params, config.modulation_frequencies_hz
-    fusion = config.values["illumination_waveform"]["frequency_fusion"]
+    camera = Camera.from_config(config)
     t0 = time.perf_counter()
-    multi = None
-    copies = len(freqs) + 1 if len(freqs) > 1 else 1
-    keep = min(keep_frames, iterations, max_keep_frames(sweep.samples * copies, params.pixel.n_phases))
-    if len(freqs) > 1:
-        if method == "mc":
-            multi = simulate_multifrequency(params, sweep, jax.random.key(seed), iterations, freqs, keep_frames=keep,
-                                            progress=progress, fusion=fusion)
-        else:
-            multi = predict_multifrequency(params, sweep, freqs, fusion=fusion)
-        multi = jax.device_get(multi)
-        result = jax.tree_util.tree_map(lambda x: x[0], multi.per_frequency)
+    copies = len(camera.frequencies_hz) + 1 if camera.multifrequency else 1
+    keep = min(keep_frames, iterations, max_keep_frames(sweep.samples * copies, camera.params.pixel.n_phases))
+    key = jax.random.key(seed)
+    if fixed_pattern:  # the population's dark slopes, drawn from the key (simulate(params, ...)'s own door)
+        out = simulate(camera.params, sweep, key, iterations, fixed_pattern=True, keep_frames=keep, progress=progress)
     elif method == "mc":
-        result = simulate(params, sweep, jax.random.key(seed), iterations, fixed_pattern=fixed_pattern,
-                          keep_frames=keep, progress=progress)
+        out = simulate(camera, sweep, key, iterations, keep_frames=keep, progress=progress)
     else:
-        result = predict(params, sweep)
-    result = jax.device_get(result)
+        out = predict(camera, sweep)
+    out = jax.device_get(out)
+    multi = out if isinstance(out, MultiFrequencyResult) else None
+    result = out if multi is None else jax.tree_util.tree_map(lambda x: x[0], multi.per_frequency)
     return Run(config, sweep, method, iterations, seed, result, multi, time.perf_counter() - t0, fixed_pattern)
 
 
