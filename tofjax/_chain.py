@@ -17,6 +17,7 @@ means and variances (:mod:`tofjax._analytic`), :func:`tofjax.simulate` with fram
 from __future__ import annotations
 
 import equinox as eqx
+import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from ._adc import Readout
@@ -40,9 +41,9 @@ class Chain(eqx.Module):
 
     **Fields:** ``params`` (the camera), ``correlation`` (the mixer's table), ``noise`` (the noise
     budget), ``limit`` (:class:`~tofjax._saturation.SBI` or :class:`~tofjax._saturation.Saturation`),
-    ``readout`` (:class:`~tofjax._adc.Readout`), ``sample`` (the swept pixel's own parameters, a
-    :class:`tofjax.PixelPattern` of scalars or of the sweep's shape: its gain, dark slopes, phase
-    offset, tap asymmetry, full well; ``None``: the mean pixel).
+    ``readout`` (:class:`~tofjax._adc.Readout`), ``sample`` (the pixels' own parameters, a
+    :class:`tofjax.PixelPattern` of scalars (a swept pixel) or one per operating point (a frame's
+    pixels): gain, dark slopes, phase offset, tap asymmetry, full well; ``None``: the mean pixel).
     """
 
     params: Params
@@ -78,13 +79,15 @@ def build_chain(params: Params, smooth: Smooth | None = None, points: int | None
                 sample: PixelPattern | None = None) -> Chain:
     """The chain of camera ``params``; ``smooth`` relaxes the limits and the ADC (``None``: hard);
     ``points``, the number of operating points of the call, chooses how the mixer's correlation is
-    evaluated (a table, or the series for a few points; ``None``: a table); ``sample``: the swept
-    pixel's own parameters (:class:`Chain`; its full well scales the limit's)."""
+    evaluated (a table, or the series for a few points; ``None``: a table); ``sample``: the pixels'
+    own parameters (:class:`Chain`; their full-well scale sets each point's full well, on the axis
+    before the phases)."""
     per_volt = electrons_per_volt(params)
     pixel = params.pixel
     well = full_well_e(pixel.v_reset_v, pixel.v_saturated_v, per_volt, pixel.full_well_e)
     if sample is not None:
-        well = well * sample.full_well_scale
+        scale = jnp.asarray(sample.full_well_scale)
+        well = well * (scale if scale.ndim == 0 else scale[..., None])  # (*points, 1) against the phases
     temperature_e = None if smooth is None else smooth.saturation_temperature_v * per_volt
     limit = limit_stage(well, pixel.sbi, temperature_e)
     readout = Readout(params.adc, per_volt, None if smooth is None else smooth.adc_temperature_lsb)

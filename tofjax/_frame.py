@@ -354,10 +354,8 @@ class FrameResult(eqx.Module):
 
 
 def _frame_chain(params: Params, smooth: Smooth | None, points: int, pattern: PixelPattern) -> Chain:
-    """The chain with each pixel's own full well ``(rows, cols, 1)``."""
-    chain = build_chain(params, smooth, points)
-    well = chain.limit.full_well_e * pattern.full_well_scale[..., None]
-    return eqx.tree_at(lambda c: c.limit.full_well_e, chain, well)
+    """The chain of the frame's pixels: each its own full well ``(rows, cols, 1)`` (:func:`build_chain`)."""
+    return build_chain(params, smooth, points, pattern)
 
 
 def _sweep(params: Params, radial_m: Array | Sweep) -> Sweep:
