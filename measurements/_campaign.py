@@ -136,7 +136,7 @@ def run_campaign(settings: CampaignSettings, *, stage, camera, lux, out: str | P
     (:mod:`tofjax.outputs`). ``on_point(done, total)``: called before the first point and after
     each (the points in the file, of the sweep's).
     """
-    from tofjax.progress import Progress
+    from tofjax.progress import Progress, held_interrupt
 
     out = Path(out)
     gray = camera.amplitude_quantity == "gray_value"
@@ -193,9 +193,10 @@ def run_campaign(settings: CampaignSettings, *, stage, camera, lux, out: str | P
             if gray:  # a gray value is not the model's amplitude: its own columns (module docstring)
                 row["gray_value_mean"], row["gray_value_std"] = row.pop("amplitude_mean_lsb"), row.pop(
                     "amplitude_std_lsb")
-            writer.write_row(row)
-            written += 1
-            report(before + written, settings.samples)
+            with held_interrupt():  # a row in the file is a row in the interrupt's note
+                writer.write_row(row)
+                written += 1
+                report(before + written, settings.samples)
             bar.update(1)
     return written
 

@@ -124,6 +124,34 @@ def test_an_interrupted_campaign_leaves_a_valid_file_and_resumes_without_duplica
                            progress=False) == 0
 
 
+def test_a_ctrl_c_just_after_a_row_is_written_is_counted_in_the_interrupt_note(tmp_path, monkeypatch):
+    # The race CI once lost: SIGINT lands between a row reaching the file and the note's count;
+    # the handler holds it until the row is counted, so the note names every row in the file.
+    import signal
+
+    from tofjax import cli
+
+    out = tmp_path / "lts.csv"
+    settings, stage, camera, lux, meta = _campaign(tmp_path)
+    write_row, notes = sf.SweepWriter.write_row, []
+
+    def write_then_interrupt(self, row):
+        write_row(self, row)
+        if len(notes) == 2:  # the second point's row is in the file
+            signal.raise_signal(signal.SIGINT)
+
+    monkeypatch.setattr(sf.SweepWriter, "write_row", write_then_interrupt)
+    previous = signal.signal(signal.SIGINT, cli._sigint)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            ms.run_campaign(settings, stage=stage, camera=camera, lux=lux, out=out, metadata=meta, progress=False,
+                            on_point=lambda done, total: notes.append(done))
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        tj.progress.clear_interrupt()
+    assert sf.read_sweep(out).n_rows == notes[-1] == 2
+
+
 def test_virtual_campaign_matches_the_analytic_prediction(tmp_path):
     out = tmp_path / "lts.csv"
     params = tj.Params(scene=tj.Scene(illuminance_lx=0.0))

@@ -343,10 +343,11 @@ def untouched_note(*paths) -> str:
 
 
 def _sigint(signum, frame):
-    from .progress import interrupt
+    from .progress import interrupt, interrupt_now
 
     interrupt()
-    raise KeyboardInterrupt
+    if interrupt_now():  # else held_interrupt raises it when its step is done
+        raise KeyboardInterrupt
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -33,6 +33,28 @@ def clear_interrupt() -> None:
     _interrupted.clear()
 
 
+_holding = 0
+
+
+@contextlib.contextmanager
+def held_interrupt():
+    """Hold a Ctrl-C until the block ends, then raise it: for a step that must finish once begun
+    (``record`` writes a measured row and counts it, so the line an interrupt prints names every row
+    in the file). Only the main thread's SIGINT handler honours it (:func:`interrupt_now`)."""
+    global _holding
+    _holding += 1
+    try:
+        yield
+    finally:
+        _holding -= 1
+    check_interrupt()
+
+
+def interrupt_now() -> bool:
+    """Whether a SIGINT handler should raise ``KeyboardInterrupt`` now (not inside :func:`held_interrupt`)."""
+    return _holding == 0
+
+
 def check_interrupt() -> None:
     """Raise ``KeyboardInterrupt`` if the run was interrupted (:func:`interrupt`)."""
     if _interrupted.is_set():
