@@ -30,6 +30,7 @@ from jax.scipy.special import ndtr
 from jaxtyping import Array, Bool, Float
 
 from ._params import ADC
+from ._stages import AbstractStage, Moments, Samples, replace
 
 _GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
 _SMOOTH_WINDOW = 6
@@ -156,16 +157,32 @@ def expected_code_slope(adc: ADC, u: Float[Array, "*b"], temperature_lsb: Float[
     return jax.nn.sigmoid(u / s) - jax.nn.sigmoid((u - top) / s)
 
 
-class Readout(eqx.Module):
-    """The readout stage: the held differential charge A - B (electrons) to codes.
+class Readout(AbstractStage):
+    """The readout stage: the held differential charge A - B (electrons) to codes. Its moments: the
+    expected code and its slope at the mean (:meth:`linearize`), the input's variance through the
+    slope, plus the quantisation variance where temporal noise dithers the staircase; its samples:
+    each frame's codes.
 
     **Fields:** ``adc`` (:class:`tofjax.ADC`), ``electrons_per_volt`` (C_int / e), ``temperature_lsb``
-    (``None``: hard quantiser and rails; else the smooth mode's width).
+    (``None``: hard quantiser and rails; else the smooth mode's width), ``dithered`` (static: the
+    quantisation error counts as noise, as it does when temporal noise is on, ``pixel.noise``).
     """
 
     adc: ADC
     electrons_per_volt: Float[Array, ""]
     temperature_lsb: Float[Array, ""] | None = None
+    dithered: bool = eqx.field(static=True, default=True)
+
+    def moments(self, m: Moments) -> Moments:
+        code, slope_code, u, slope_u = self.linearize(m.diff)
+        var_code = slope_code**2 * m.var_diff
+        if self.dithered:
+            var_code = var_code + self.quantization_variance_lsb2
+        return replace(m, code=code, u=u, slope_u=slope_u, var_code=var_code)
+
+    def sample(self, s: Samples) -> Samples:
+        u = self.position(s.diff)
+        return replace(s, u=u, codes=self.quantize(u), adc_saturated=jnp.any(self.saturated(u), axis=0))
 
     @property
     def mid_code(self) -> float:

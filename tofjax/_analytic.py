@@ -1,9 +1,10 @@
-"""The analytic path: :func:`predict` walks the chain with means and variances, in closed form per
-operating point (docs/model.md, "Analytic path").
+"""The analytic path: :func:`predict` folds means and variances through the chain's stages in order
+(:meth:`tofjax.Chain.moments`), in closed form per operating point (docs/model.md, "Analytic path").
 
 Per phase image: the noise sources before the limit give each tap's variance; the limit passes
 them to the held differential with its closed-form slopes; the sources after the limit add theirs;
-the readout's slope carries the sum to the code, and the quantisation variance joins it. The
+the readout's gain compression maps the mean and variance exactly (a cubic of a Gaussian); the
+readout's slope carries the variance to the code, and the quantisation variance joins it. The
 demodulation's delta method then gives phase and amplitude statistics with the higher orders of a
 phasor in Gaussian noise (:func:`tofjax._depth.delta_method`). No stage is differentiated
 numerically; the cost per operating point is a few hundred flops and O(phases) memory.
@@ -11,7 +12,6 @@ numerically; the cost per operating point is a few hundred flops and O(phases) m
 
 from __future__ import annotations
 
-import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array
 
@@ -19,12 +19,12 @@ from . import _depth, _jit
 from ._adc import saturated
 from ._chain import Chain, build_chain
 from ._charges import TapCharges
-from ._noise import AFTER_LIMIT, BEFORE_LIMIT
 from ._params import Params
 from ._reduce import max_last, mean_last
 from ._result import CAVEAT_COARSE_QUANTIZATION, CAVEAT_LOW_SNR, CAVEAT_NEAR_LIMIT, Result, snr_db
 from ._pattern import PixelPattern, one_pixel
 from ._smooth import Smooth
+from ._stages import Moments
 from ._sweep import Sweep, check_inputs, pad_sweep, unpad
 
 #: Standard deviations within which a limit makes the analytic statistics a caveat.
@@ -51,46 +51,13 @@ def _nan_unless(ok: Array, x: Array) -> Array:
     return jnp.where(ok, x, jnp.nan)
 
 
-class Moments(eqx.Module):
-    """Means and variances through the chain, per operating point (``*b``) and phase image."""
-
-    charges: TapCharges  # expected tap charges before any limit
-    var_a: Array  # variance of tap A before the limit, e-^2
-    var_b: Array
-    held_a: Array  # held charge of tap A, e-
-    held_b: Array
-    var_held: Array  # variance of the held differential, e-^2
-    code: Array  # expected code
-    u: Array  # code position
-    slope_u: Array  # d u / d charge
-    var_code: Array  # code variance (with quantisation), LSB^2
-    phase: Array  # (*b,) from here on: the demodulated phasor's statistics
-    var_phase: Array
-    v_first: Array
-    amp: Array
-    var_amp: Array
-
-
 def moments(chain: Chain, sweep: Sweep, charges: TapCharges | None = None) -> Moments:
-    """Walk the chain with means and variances (module docstring); ``charges``: the exposure's, if
-    computed."""
+    """The moments through the chain's stages (:meth:`tofjax.Chain.moments`); ``charges``: the
+    exposure's, if computed."""
     if charges is None:
         d, ev, t = sweep.operating_points(chain.params.scene)
         charges = chain.expose(d, ev, t)
-    n_a, n_b = charges.a, charges.b
-    limit, readout, noise = chain.limit, chain.readout, chain.noise
-    var_a, var_b = noise.variance_e2(charges, BEFORE_LIMIT)
-    held_a, held_b = limit(n_a, n_b)
-    slope_a, slope_b = limit.slopes(n_a, n_b)
-    post_a, post_b = noise.variance_e2(charges, AFTER_LIMIT)
-    var_held = slope_a**2 * var_a + slope_b**2 * var_b + post_a + post_b
-    code, slope_code, u, slope_u = readout.linearize(held_a - held_b)
-    var_code = slope_code**2 * var_held
-    if noise.enabled:
-        var_code = var_code + readout.quantization_variance_lsb2
-    phase, var_phase, v_first, amp, var_amp = _depth.delta_method(code - readout.mid_code, var_code, chain.n_phases)
-    return Moments(charges, var_a, var_b, held_a, held_b, var_held, code, u, slope_u, var_code, phase, var_phase,
-                   v_first, amp, var_amp)
+    return chain.moments(charges)
 
 
 def analytic(chain: Chain, sweep: Sweep, m: Moments | None = None) -> Result:
@@ -98,7 +65,7 @@ def analytic(chain: Chain, sweep: Sweep, m: Moments | None = None) -> Result:
     params = chain.params
     d, ev, t = sweep.operating_points(params.scene)
     m = moments(chain, sweep) if m is None else m
-    charges, var_a, var_b, held_a, held_b, var_held = m.charges, m.var_a, m.var_b, m.held_a, m.held_b, m.var_held
+    charges, var_a, var_b, held_a, held_b, var_held = m.charges, m.var_a, m.var_b, m.a, m.b, m.var_diff
     code, u, slope_u = m.code, m.u, m.slope_u
     phase, var_phase, v_first, amp, var_amp = m.phase, m.var_phase, m.v_first, m.amp, m.var_amp
     n_a, n_b = charges.a, charges.b

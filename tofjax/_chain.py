@@ -1,17 +1,20 @@
-"""The signal chain of one camera, composed once from its parameters (thesis Fig 3.1).
+"""The signal chain of one camera, composed once from its parameters (thesis Fig 3.1): an ordered
+tuple of stages (:mod:`tofjax._stages`) after the exposure.
 
     exposure (optical path, background light, mixer, dark signal)       -> expected tap charges
-    noise before the limit (photon shot, dark shot, reset kTC)           -> per-tap variances
-    limit (SBI or saturation, hard or smooth)                            -> held tap charges
-    noise after the limit (hold kTC, readout)                            -> differential variance
-    readout (conversion gain, ADC with offset, gain, INL, DNL, rails)    -> codes
-    demodulation (Z = sum_j D_j exp(i theta_j))                          -> phase, amplitude, depth
+    Noise: sources before the limit (photon shot, dark shot, reset kTC) -> per-tap variances
+    limit (SBI or saturation, hard or smooth)                           -> held tap charges
+    Noise: sources after the limit (hold kTC, readout)                  -> differential variance
+    ReadoutNonlinearity (gain compression of the readout chain)         -> compressed differential
+    Readout (conversion gain, ADC with offset, gain, INL, DNL, rails)   -> codes
+    Demodulation (Z = sum_j D_j exp(i theta_j))                         -> phase, amplitude, depth
 
 :func:`build_chain` makes each stage from :class:`tofjax.Params` (and a :class:`tofjax.Smooth` for the
 relaxed limits), including the correlation table the exposure reads: everything that does not depend
-on the operating point is computed here, once per call. :func:`tofjax.predict` walks the chain with
-means and variances (:mod:`tofjax._analytic`), :func:`tofjax.simulate` with frames
-(:mod:`tofjax._montecarlo`); both take any batch shape of operating points.
+on the operating point is computed here, once per call. :func:`tofjax.predict` folds the moments
+through the stages (:mod:`tofjax._analytic`), :func:`tofjax.simulate` draws the noise and the limit
+and folds its frames through the rest (:mod:`tofjax._frames`); both take any batch shape of
+operating points.
 """
 
 from __future__ import annotations
@@ -24,11 +27,14 @@ from ._adc import Readout
 from ._correlation import SERIES_POINTS, Correlation, correlation
 from ._charges import TapCharges
 from ._mixer import expose
-from ._noise import NoiseBudget
+from ._depth import Demodulation
+from ._noise import AFTER_LIMIT, BEFORE_LIMIT, NOISE_SOURCES, Noise, NoiseBudget
+from ._nonlinearity import ReadoutNonlinearity
 from ._params import Params
 from ._pattern import PixelPattern
 from ._saturation import AbstractLimit, full_well_e, limit_stage
 from ._smooth import Smooth
+from ._stages import AbstractStage, Moments, Samples, fold_moments, fold_samples
 
 
 def electrons_per_volt(params: Params) -> Array:
@@ -39,19 +45,70 @@ def electrons_per_volt(params: Params) -> Array:
 class Chain(eqx.Module):
     """The composed chain (module docstring).
 
-    **Fields:** ``params`` (the camera), ``correlation`` (the mixer's table), ``noise`` (the noise
-    budget), ``limit`` (:class:`~tofjax._saturation.SBI` or :class:`~tofjax._saturation.Saturation`),
-    ``readout`` (:class:`~tofjax._adc.Readout`), ``sample`` (the pixels' own parameters, a
-    :class:`tofjax.PixelPattern` of scalars (a swept pixel) or one per operating point (a frame's
-    pixels): gain, dark slopes, phase offset, tap asymmetry, full well; ``None``: the mean pixel).
+    **Fields:** ``params`` (the camera), ``correlation`` (the mixer's table), ``stages`` (the ordered
+    tuple after the exposure, module docstring; exactly one limit, one readout and one
+    demodulation), ``sample`` (the pixels' own parameters, a :class:`tofjax.PixelPattern` of scalars
+    (a swept pixel) or one per operating point (a frame's pixels): gain, dark slopes, phase offset,
+    tap asymmetry, full well; ``None``: the mean pixel).
     """
 
     params: Params
     correlation: Correlation
-    noise: NoiseBudget
-    limit: AbstractLimit
-    readout: Readout
+    stages: tuple[AbstractStage, ...]
     sample: PixelPattern | None = None
+
+    def _one(self, kind: type) -> AbstractStage:
+        (stage,) = (s for s in self.stages if isinstance(s, kind))
+        return stage
+
+    @property
+    def limit(self) -> AbstractLimit:
+        """The limit stage (:class:`~tofjax._saturation.SBI` or :class:`~tofjax._saturation.Saturation`)."""
+        return self._one(AbstractLimit)
+
+    @property
+    def readout(self) -> Readout:
+        """The readout stage (:class:`~tofjax._adc.Readout`)."""
+        return self._one(Readout)
+
+    @property
+    def noise(self) -> NoiseBudget:
+        """Every noise source of the chain's :class:`~tofjax._noise.Noise` stages, in the breakdown's
+        order (:data:`~tofjax._noise.NOISE_SOURCES`)."""
+        stages = [s for s in self.stages if isinstance(s, Noise)]
+        sources = tuple(source for stage in stages for source in stage.sources)
+        order = {kind.name: i for i, kind in enumerate(NOISE_SOURCES)}
+        return NoiseBudget(tuple(sorted(sources, key=lambda source: order[source.name])), stages[0].enabled)
+
+    @property
+    def _drawn(self) -> int:
+        """How many leading stages the Monte Carlo's draw covers: up to the last noise source."""
+        return 1 + max(i for i, s in enumerate(self.stages) if isinstance(s, Noise))
+
+    def with_limit(self, limit: AbstractLimit) -> Chain:
+        """The chain with another limit (a frame's pixels' own full wells)."""
+        i = next(i for i, s in enumerate(self.stages) if isinstance(s, AbstractLimit))
+        return eqx.tree_at(lambda c: c.stages, self, (*self.stages[:i], limit, *self.stages[i + 1:]))
+
+    def moments(self, charges: TapCharges) -> Moments:
+        """The moments through every stage, from the exposure's expected ``charges`` (the analytic
+        path, :mod:`tofjax._analytic`)."""
+        return fold_moments(self.stages, Moments.of(charges))
+
+    def drawn_moments(self, charges: TapCharges) -> Moments:
+        """The moments through the stages the Monte Carlo draws (up to the last noise source): the
+        taps' variances before the limit, the held charges, the variances added after it."""
+        stages = self.stages[:self._drawn]
+        if [type(s) for s in stages if not isinstance(s, AbstractLimit)] != [Noise, Noise] \
+                or not isinstance(stages[1], AbstractLimit):
+            raise NotImplementedError("the Monte Carlo draws noise, limit, noise (tofjax._frames.draw_frames); "
+                                      f"this chain has {[type(s).__name__ for s in stages]} there")
+        return fold_moments(stages, Moments.of(charges))
+
+    def samples(self, diff: Array) -> Samples:
+        """Frames of the drawn differential ``diff`` (phase axis first) through the stages after the
+        last noise source: codes, ADC flags, phase and amplitude (the Monte Carlo)."""
+        return fold_samples(self.stages[self._drawn:], Samples(diff))
 
     @property
     def n_phases(self) -> int:
@@ -84,13 +141,17 @@ def build_chain(params: Params, smooth: Smooth | None = None, points: int | None
     before the phases)."""
     per_volt = electrons_per_volt(params)
     pixel = params.pixel
-    well = full_well_e(pixel.v_reset_v, pixel.v_saturated_v, per_volt, pixel.full_well_e)
+    nominal_well = well = full_well_e(pixel.v_reset_v, pixel.v_saturated_v, per_volt, pixel.full_well_e)
     if sample is not None:
         scale = jnp.asarray(sample.full_well_scale)
         well = well * (scale if scale.ndim == 0 else scale[..., None])  # (*points, 1) against the phases
     temperature_e = None if smooth is None else smooth.saturation_temperature_v * per_volt
     limit = limit_stage(well, pixel.sbi, temperature_e)
-    readout = Readout(params.adc, per_volt, None if smooth is None else smooth.adc_temperature_lsb)
+    readout = Readout(params.adc, per_volt, None if smooth is None else smooth.adc_temperature_lsb, pixel.noise)
     table = correlation(params.illumination_waveform, params.reference_waveform, pixel.n_phases,
                         tabulate=points is None or points > SERIES_POINTS)
-    return Chain(params, table, NoiseBudget.from_params(params), limit, readout, sample)
+    budget = NoiseBudget.from_params(params)
+    stages = (budget.stage(BEFORE_LIMIT), limit, budget.stage(AFTER_LIMIT),
+              ReadoutNonlinearity(pixel.readout_nonlinearity, nominal_well), readout,
+              Demodulation(pixel.n_phases, readout.mid_code))
+    return Chain(params, table, stages, sample)

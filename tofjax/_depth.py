@@ -29,6 +29,7 @@ from jax import lax
 from jaxtyping import Array, Bool, Complex, Float
 
 from . import _rician
+from ._stages import AbstractStage, Moments, Samples, replace
 from ._waveforms import phase_steps
 
 # Cephes' atan: P/Q rational approximation on [0, tan(pi/8)], with the pi/4 reduction above it.
@@ -232,3 +233,22 @@ def unwrap_along_sweep(phase: Float[Array, "samples *rest"], valid: Bool[Array, 
     """
     filled = _fill_invalid(jnp.where(valid, phase, 0.0), valid)
     return jnp.where(valid, jnp.unwrap(filled, axis=0), jnp.nan)
+
+
+class Demodulation(AbstractStage):
+    """The last stage: the phase images' signed codes D_j = code_j - mid code to the phasor
+    Z = sum_j D_j exp(i theta_j), its phase and amplitude (§3.3.3). Moments: the delta method with
+    the higher orders of a phasor in Gaussian noise (:func:`delta_method`); samples: each frame's.
+
+    **Fields** (static): ``n_phases``, ``mid_code`` (the code of a zero differential)."""
+
+    n_phases: int = eqx.field(static=True)
+    mid_code: float = eqx.field(static=True)
+
+    def moments(self, m: Moments) -> Moments:
+        phase, var_phase, v_first, amp, var_amp = delta_method(m.code - self.mid_code, m.var_code, self.n_phases)
+        return replace(m, phase=phase, var_phase=var_phase, v_first=v_first, amp=amp, var_amp=var_amp)
+
+    def sample(self, s: Samples) -> Samples:
+        re, im = phasor(s.codes - self.mid_code)
+        return replace(s, phase=atan2(im, re), amplitude=amplitude_scale(self.n_phases) * jnp.sqrt(re * re + im * im))

@@ -33,7 +33,6 @@ from jaxtyping import Array
 from . import _depth
 from ._chain import Chain
 from ._charges import TapCharges
-from ._noise import AFTER_LIMIT, BEFORE_LIMIT
 from ._random import MAX_ABS_NORMAL, normals
 from ._reduce import sum_by_slices
 
@@ -82,36 +81,33 @@ class PointCharges(eqx.Module):
         return point_constants(chain, self.exposed.charges(), self.index, self.full_well_e)
 
 
-def _limit(chain: Chain, full_well_e: Array | None, frames: bool, frames_first: bool = False):
-    """The chain's limit, with each point's own full well ``(points,)`` where given, shaped for
+def _limit(chain: Chain, full_well_e: Array | None, frames: bool, frames_first: bool = False) -> Chain:
+    """The chain with each point's own full well ``(points,)`` where given, its limit shaped for
     charges ``(points, phases)`` or (``frames``) ``(phases, points, frames)`` (``frames_first``:
     ``(phases, frames, points)``)."""
     if full_well_e is None:
-        return chain.limit
+        return chain
     well = (full_well_e[None, None, :] if frames_first else full_well_e[None, :, None]) if frames else full_well_e[:, None]
-    return eqx.tree_at(lambda lim: lim.full_well_e, chain.limit, well)
+    return chain.with_limit(eqx.tree_at(lambda lim: lim.full_well_e, chain.limit, well))
 
 
 def point_constants(chain: Chain, charges: TapCharges, index: Array, full_well_e: Array | None = None) -> PointConstants:
-    """Per-point constants of the frames from the expected charges (flattened points);
-    ``full_well_e`` ``(points,)``: each point's own full well (default: the chain's)."""
-    noise, readout = chain.noise, chain.readout
-    limit = _limit(chain, full_well_e, frames=False)
+    """Per-point constants of the frames from the expected charges (flattened points), the moments
+    through the stages the draw covers (:meth:`tofjax.Chain.drawn_moments`); ``full_well_e``
+    ``(points,)``: each point's own full well (default: the chain's)."""
+    chain = _limit(chain, full_well_e, frames=False)
+    m = chain.drawn_moments(charges)
     n_a, n_b = charges.a, charges.b
-    var_a, var_b = noise.variance_e2(charges, BEFORE_LIMIT)
-    post_a, post_b = noise.variance_e2(charges, AFTER_LIMIT)
+    var_a, var_b, post_a, post_b = m.var_a, m.var_b, m.post_a, m.post_b
     sd_a, sd_b = jnp.sqrt(var_a), jnp.sqrt(var_b)
-    linear, always = limit.linear(n_a, n_b, MAX_ABS_NORMAL * sd_a, MAX_ABS_NORMAL * sd_b)
-    held_a, held_b = limit(n_a, n_b)
-    values = readout.quantize(readout.position(held_a - held_b)) - readout.mid_code
-    re, im = _depth.phasor(jnp.moveaxis(values, -1, 0))
+    linear, always = chain.limit.linear(n_a, n_b, MAX_ABS_NORMAL * sd_a, MAX_ABS_NORMAL * sd_b)
     t = lambda x: jnp.moveaxis(x, -1, 0)  # noqa: E731 - (points, phases) -> (phases, points)
+    ref = chain.samples(t(m.diff))  # the noise-free frame
     return PointConstants(
         n_a=t(n_a), n_b=t(n_b), sd_a=t(sd_a), sd_b=t(sd_b), sd_after=t(jnp.sqrt(post_a + post_b)),
         sd_after_a=t(jnp.sqrt(jnp.broadcast_to(post_a, n_a.shape))),
         sd_fast=t(jnp.sqrt(var_a + var_b + post_a + post_b)), linear=jnp.all(linear, axis=-1),
-        sbi_fixed=jnp.any(always, axis=-1), ref_phase=_depth.atan2(im, re),
-        ref_amp=_depth.amplitude_scale(chain.n_phases) * jnp.sqrt(re * re + im * im), index=index,
+        sbi_fixed=jnp.any(always, axis=-1), ref_phase=ref.phase, ref_amp=ref.amplitude, index=index,
         full_well_e=full_well_e,
     )
 
@@ -154,8 +150,8 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
     d0 = A - B is drawn given the drawn D (w1), the taps' sum A + B given d0 (w2), the limit applied
     to A = (sum + d0) / 2 and B = (sum - d0) / 2 (SBI removes their common mode), and e = D - d0
     split as on the other path (w3). Exact in distribution on both paths."""
-    limit, readout = _limit(chain, source.full_well_e, frames=True, frames_first=frames_first), chain.readout
-    n_phases = chain.n_phases
+    limited = _limit(chain, source.full_well_e, frames=True, frames_first=frames_first)
+    limit, n_phases = limited.limit, chain.n_phases
     frame = first_frame + jnp.arange(n_frames, dtype=jnp.uint32)
     if frames_first:
         frame, point = frame[:, None], source.index[None, :]
@@ -237,11 +233,8 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
         shape = diff.shape[1:]
         pixel_sat = jnp.broadcast_to(jnp.any(saturated, axis=0), shape)
         sbi_on = jnp.broadcast_to(jnp.any(engaged, axis=0), shape)
-    u = readout.position(diff)
-    codes = readout.quantize(u)
-    re, im = _depth.phasor(codes - readout.mid_code)
-    amplitude = _depth.amplitude_scale(n_phases) * jnp.sqrt(re * re + im * im)
-    return FrameBatch(codes, _depth.atan2(im, re), amplitude, pixel_sat, jnp.any(readout.saturated(u), axis=0), sbi_on,
+    frames = chain.samples(diff)  # the stages after the noise: codes, phase, amplitude
+    return FrameBatch(frames.codes, frames.phase, frames.amplitude, pixel_sat, frames.adc_saturated, sbi_on,
                       tap_a, tap_b)
 
 

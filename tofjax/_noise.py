@@ -9,9 +9,11 @@ Every source is one small class that states
 - how it is sampled: Gaussian, independent per tap, phase image and frame. Sources acting at one node
   are independent Gaussians, so the Monte Carlo draws their sum once per tap and node.
 
-The :class:`NoiseBudget` is the tuple of sources. The analytic path, the Monte Carlo, the noise
-breakdown (:class:`tofjax.NoiseBreakdown`) and the closed-form estimates all read it, so a new source
-is one class here, added to :data:`NOISE_SOURCES` (docs/model.md, "Adding a noise source").
+The chain places the sources of each node as one :class:`Noise` stage, before and after the limit
+(:func:`tofjax.build_chain`): a source acts where its stage stands in the chain's tuple. The
+:class:`NoiseBudget` is every source, for the noise breakdown (:class:`tofjax.NoiseBreakdown`) and
+the closed-form estimates, so a new source is one class here, added to :data:`NOISE_SOURCES`
+(docs/model.md, "Adding a noise source").
 
 Electrons are referred to the integration node (conversion gain e / C_int, C_int = C_diode +
 C_sample&hold):
@@ -42,6 +44,7 @@ from jaxtyping import Array, Float
 from . import _constants as const
 from ._params import Params, PhysicalConstants, Pixel
 from ._reduce import mean_last
+from ._stages import AbstractStage, Moments, replace
 
 if TYPE_CHECKING:
     from ._charges import TapCharges
@@ -184,6 +187,37 @@ NOISE_SOURCES: tuple[type[AbstractNoiseSource], ...] = (ResetNoise, HoldNoise, P
                                                         ReadoutNoise)
 
 
+def _variance_e2(sources, charges: TapCharges) -> tuple[Array, Array]:
+    """Total variance of taps A and B from ``sources``, ``(*b, phases)``."""
+    var_a = var_b = jnp.zeros(charges.photo_a.shape)
+    for source in sources:
+        a, b = source.variance_e2(charges)
+        var_a, var_b = var_a + a, var_b + b
+    return var_a, var_b
+
+
+class Noise(AbstractStage):
+    """The noise sources acting at one node, as a stage of the chain: before the limit they add
+    their variances to each tap's, after it to the held differential's (Gaussian, independent per
+    tap, phase image and frame; the Monte Carlo draws their sum, :mod:`tofjax._frames`).
+
+    **Fields:** ``sources`` (:class:`AbstractNoiseSource` instances), ``enabled`` (``pixel.noise``;
+    ``False``: they add nothing)."""
+
+    sources: tuple[AbstractNoiseSource, ...]
+    enabled: bool = eqx.field(static=True)
+
+    def variance_e2(self, charges: TapCharges) -> tuple[Array, Array]:
+        """Total variance of taps A and B from the stage's sources (0 when disabled), ``(*b, phases)``."""
+        return _variance_e2(self.sources if self.enabled else (), charges)
+
+    def moments(self, m: Moments) -> Moments:
+        var_a, var_b = self.variance_e2(m.charges)
+        if not m.limited:
+            return replace(m, var_a=m.var_a + var_a, var_b=m.var_b + var_b)
+        return replace(m, var_diff=m.var_diff + var_a + var_b, post_a=m.post_a + var_a, post_b=m.post_b + var_b)
+
+
 class NoiseBudget(eqx.Module):
     """The noise sources of a camera. ``enabled`` (``pixel.noise``) switches their effect on the
     frames off; the breakdown still reports them."""
@@ -197,14 +231,11 @@ class NoiseBudget(eqx.Module):
 
     def variance_e2(self, charges: TapCharges, node: str) -> tuple[Array, Array]:
         """Total variance of taps A and B from the sources at ``node`` (0 when disabled), ``(*b, phases)``."""
-        shape = charges.photo_a.shape
-        var_a = var_b = jnp.zeros(shape)
-        if self.enabled:
-            for source in self.sources:
-                if source.node == node:
-                    a, b = source.variance_e2(charges)
-                    var_a, var_b = var_a + a, var_b + b
-        return var_a, var_b
+        return self.stage(node).variance_e2(charges)
+
+    def stage(self, node: str) -> Noise:
+        """The :class:`Noise` stage of the sources at ``node``."""
+        return Noise(tuple(source for source in self.sources if source.node == node), self.enabled)
 
     def differential_variance_e2(self, charges: TapCharges) -> Float[Array, "*b phases"]:
         """Variance of A - B of one phase image from every source, where no limit acts."""

@@ -149,6 +149,7 @@ class Pixel(eqx.Module):
     dark_slope_mean_v_per_s: Scalar = _float("pixel", "dark_slope_mean_v_per_s")
     dark_slope_sigma_v_per_s: Scalar = _float("pixel", "dark_slope_sigma_v_per_s")
     readout_noise_e: Scalar = _float("pixel", "readout_noise_e")
+    readout_nonlinearity: Scalar = _float("pixel", "readout_nonlinearity")
     full_well_e: Scalar = _float("pixel", "full_well_e")
     sbi: bool = _static("pixel", "sbi")
     noise: bool = _static("pixel", "noise")

@@ -32,6 +32,8 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float
 
+from ._stages import AbstractStage, Moments, replace
+
 
 def _relu(x: Array, temperature: Array | None) -> Array:
     if temperature is None:
@@ -64,8 +66,10 @@ def _min_with(x: Array, top: Array, temperature: Array | None) -> Array:
     return jnp.where(x - top >= temperature, top, x - _relu(x - top, temperature))
 
 
-class AbstractLimit(eqx.Module):
-    """The limit stage: the taps' charge after SBI/saturation.
+class AbstractLimit(AbstractStage):
+    """The limit stage: the taps' charge after SBI/saturation. Its moments: the held charges at the
+    taps' means, and the differential's variance through the closed-form slopes (the delta method);
+    the Monte Carlo applies it to each frame's taps in its draw (:mod:`tofjax._frames`).
 
     **Fields:** ``full_well_e`` (N_sat), ``temperature_e`` (``None``: hard mode; else the smooth
     switch's half-width in electrons).
@@ -95,6 +99,13 @@ class AbstractLimit(eqx.Module):
     def linear(self, n_a: Array, n_b: Array, reach_a: Array, reach_b: Array) -> tuple[Array, Array]:
         """Whether every charge within ``reach`` electrons of ``n`` passes (:meth:`passes`) with
         constant flags, and the (constant) SBI flag there: ``(linear, sbi_engaged)``."""
+
+    def moments(self, m: Moments) -> Moments:
+        held_a, held_b = self(m.a, m.b)
+        slope_a, slope_b = self.slopes(m.a, m.b)
+        zero = jnp.zeros(())
+        return replace(m, a=held_a, b=held_b, diff=held_a - held_b,
+                       var_diff=slope_a**2 * m.var_a + slope_b**2 * m.var_b, post_a=zero, post_b=zero)
 
     @property
     def _margin(self) -> Array | float:

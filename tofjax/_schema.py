@@ -205,6 +205,9 @@ KEYS: tuple[Key, ...] = (
     _k("pixel", "readout_noise_e", "float", 0.0, "e-",
        "readout noise of one tap beyond kTC (source follower, column amplifier, ADC input), rms electrons; "
        "0 = none", 0.0, 1e5),
+    _k("pixel", "readout_nonlinearity", "float", 0.0, "1",
+       "gain compression of the readout chain: relative gain lost at a differential of one full well, "
+       "y = x (1 - k (x / full well)^2); 0 = linear", 0.0, 0.25),
     _k("pixel", "full_well_e", "float", 0.0, "e-",
        "full well of one tap in electrons (a data sheet's value); 0 = from the voltage swing, "
        "(v_reset_v - v_saturated_v) C_int / e", 0.0, 1e8),
