@@ -8,29 +8,29 @@ return, the phasor sum), then the noisy frames (noise, SBI, ADC, demodulation). 
 constants (the correlation table, each pixel's etendue and conversion to electrons) are computed once
 on both sides, as NumPy's ``NumpyFrame`` always did: a camera streaming a changing scene.
 
-- ``one``: one noisy frame per call, the scene exposed in the same call (``tj.prepare_camera`` once,
+- ``one``: one noisy frame per call, the scene exposed in the same call (``camera.prepare()`` once,
   then its ``sample(returns, key, 1)``: the exposure and the frame's distance, amplitude and
   validity; NumPy: the same, one frame);
-- ``sample_frame``: the same through ``tj.sample_frame(params, settings, returns, key, 1)``, which
+- ``sample_frame``: the same through ``camera.prepare().sample(returns, key, 1)`` in every call, which
   prepares the camera in every call too (no NumPy counterpart);
-- ``moving_scene``: the scene ray-cast in every call too (``tj.scene_returns`` of the plane, then the
+- ``moving_scene``: the scene ray-cast in every call too (``camera.returns`` of the plane, then the
   camera's ``sample``): a built-in scene that moves (no NumPy counterpart);
-- ``render_one``: one frame through ``render_frame(frames=1, keep_frames=1)``, which also computes the
+- ``render_one``: one frame through ``tj.simulate(camera, returns, key, 1, keep_frames=1)``, which also computes the
   per-pixel statistics of its frames (no NumPy counterpart);
-- ``prepared``: one noisy frame per call of a scene exposed once (``prepare_frame`` once, then
+- ``prepared``: one noisy frame per call of a scene exposed once (``camera.expose(returns)`` once, then
   ``.sample(key, 1)``: the frame only; NumPy: the expected charges once, then one frame per call):
   a live view or a stream of frames of a static scene;
-- ``batch``: 32 noisy frames per call, all kept (``render_frame(frames=32, keep_frames=32)``; NumPy:
+- ``batch``: 32 noisy frames per call, all kept (``tj.simulate(camera, returns, key, 32, keep_frames=32)``; NumPy:
   the exposure once and 32 frames in one vectorised draw);
 - ``floor``: only the normals each side draws for those 32 frames (tofjax: one Philox normal per
   phase image; NumPy: 4 PCG64 normals per phase image);
-- ``analytic``: the analytic frame (``predict_frame``: every field, the noise image among them),
+- ``analytic``: the analytic frame (``tj.predict(camera, returns)``: every field, the noise image among them),
   images per second; ``analytic_prepared``: the chain's share of it, after the exposure
-  (``prepare_frame(...).predict()``);
-- ``noise_image``: only the noise image (``tj.noise_image``: the camera, the exposure and the depth
+  (``camera.expose(returns).predict()``);
+- ``noise_image``: only the noise image (``camera.prepare().noise_image(returns)``: the camera, the exposure and the depth
   standard deviation, nothing else); ``noise_image_camera``: of a prepared camera
   (``PreparedCamera.noise_image(returns)``: the exposure and the chain); ``noise_image_depth_map``:
-  the same for a depth map of the same plane (one return per pixel, :func:`tofjax.depth_returns`);
+  the same for a depth map of the same plane (one return per pixel, ``camera.returns(depth_map)``);
   ``noise_image_prepared``: after the exposure (``PreparedFrame.noise_image()``).
 
 Targets (issue 13): 224 x 172 >= 100 frames/s and >= 2x NumPy; 640 x 480 >= 25 frames/s; the
@@ -73,15 +73,15 @@ class NumpyFrame:
     def __init__(self, params, settings, returns):
         self.base = Baseline(params)
         self.base.table()
-        rays = tj.frame_rays(params, settings, 1)
-        etendue = np.asarray(tj.pixel_etendue_m2_sr(params, settings, rays)).ravel()
+        rays = tj.optics.frame_rays(params, settings, 1)
+        etendue = np.asarray(tj.optics.pixel_etendue_m2_sr(params, settings, rays)).ravel()
         ill, k, pix, scene = params.illumination, params.constants, params.pixel, params.scene
         e_photon = float(k.planck_j_s * k.speed_of_light_m_per_s / ill.wavelength_m)
         qe = float(pix.photo_responsivity_a_per_w) * e_photon / float(k.elementary_charge_c)
         t = float(scene.integration_time_s)
         emitted = float(ill.peak_power_w * waveform_mean(params.illumination_waveform))
         self.per_radiance = (emitted * etendue * t / e_photon * qe)[:, None]  # electrons per unit radiance/W
-        photon_irr = float(tj.background_photon_irradiance(scene.background, scene.illuminance_lx, ill.wavelength_m,
+        photon_irr = float(tj.optics.background_photon_irradiance(scene.background, scene.illuminance_lx, ill.wavelength_m,
                                                            scene.filter_half_width_m, k))
         self.background = photon_irr / np.pi * etendue * t * qe  # x ambient reflectivity
         self.dark = self.base.dark_per_s * t
@@ -115,27 +115,27 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
     rows, cols = size
     p = eqx.tree_at(lambda q: q.camera.optical_area_m, tj.Params(), jnp.array([cols * PITCH, rows * PITCH]))
     s = tj.FrameSettings()
+    cam = tj.Camera(p, s)
     plane = scenes.tilted_plane(1.2, 30.0)
-    returns = ready(tj.scene_returns(p, s, plane))
-    depth_map = ready(tj.depth_returns(p, s, returns.radial_m, 0.5, radial=True))
+    returns = ready(cam.returns(plane))
+    depth_map = ready(cam.returns(returns.radial_m, reflectivity=0.5, radial=True))
     n_px = rows * cols
-    camera = ready(tj.prepare_camera(p, s))
-    prepared = ready(tj.prepare_frame(p, s, returns))
+    camera = ready(cam.prepare())
+    prepared = ready(cam.expose(returns))
     words = key_words(jax.random.key(5))
     floor_jax = jax.jit(lambda f0: jnp.sum(normals(words, f0 + jnp.arange(BATCH, dtype=jnp.uint32)[None, :],
                                                    jnp.arange(n_px, dtype=jnp.uint32)[:, None], 0, 4)))
     cases = {
         "tofjax_one": lambda i: ready(camera.sample(returns, jax.random.key(i + 3), 1).radial_m),
-        "tofjax_sample_frame": lambda i: ready(tj.sample_frame(p, s, returns, jax.random.key(i + 3), 1).radial_m),
-        "tofjax_moving_scene": lambda i: ready(camera.sample(tj.scene_returns(p, s, plane), jax.random.key(i + 3), 1).radial_m),
-        "tofjax_render_one": lambda i: ready(tj.render_frame(p, s, returns, jax.random.key(i + 3), 1, keep_frames=1)
+        "tofjax_sample_frame": lambda i: ready(cam.prepare().sample(returns, jax.random.key(i + 3), 1).radial_m),
+        "tofjax_moving_scene": lambda i: ready(camera.sample(cam.returns(plane), jax.random.key(i + 3), 1).radial_m),
+        "tofjax_render_one": lambda i: ready(tj.simulate(cam, returns, jax.random.key(i + 3), 1, keep_frames=1)
                                              .result.depth_m),
-        "tofjax_batch": lambda i: ready(tj.render_frame(p, s, returns, jax.random.key(i + 3), BATCH,
-                                                        keep_frames=BATCH).result.depth_m),
+        "tofjax_batch": lambda i: ready(tj.simulate(cam, returns, jax.random.key(i + 3), BATCH, keep_frames=BATCH).result.depth_m),
         "tofjax_prepared": lambda i: ready(prepared.sample(jax.random.key(i + 3), 1).radial_m),
-        "tofjax_analytic": lambda i: ready(tj.predict_frame(p, s, returns).depth_std_m),
+        "tofjax_analytic": lambda i: ready(tj.predict(cam, returns).depth_std_m),
         "tofjax_analytic_prepared": lambda i: ready(prepared.predict().depth_std_m),
-        "tofjax_noise_image": lambda i: ready(tj.noise_image(p, s, returns)),
+        "tofjax_noise_image": lambda i: ready(cam.prepare().noise_image(returns)),
         "tofjax_noise_image_camera": lambda i: ready(camera.noise_image(returns)),
         "tofjax_noise_image_depth_map": lambda i: ready(camera.noise_image(depth_map)),
         "tofjax_noise_image_prepared": lambda i: ready(prepared.noise_image()),
@@ -169,7 +169,7 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
                               "numpy_prepared/tofjax_prepared": t["numpy_prepared"] / t["tofjax_prepared"],
                               "numpy_batch/tofjax_batch": t["numpy_batch"] / t["tofjax_batch"],
                               "numpy_batch/floor_numpy_normals": t["numpy_batch"] / t["floor_numpy_normals"]})
-        mc = tj.render_frame(p, s, returns, jax.random.key(0), BATCH, keep_frames=BATCH)
+        mc = tj.simulate(cam, returns, jax.random.key(0), BATCH, keep_frames=BATCH)
         d_np = npf.frames(np.random.default_rng(0), BATCH)
         std_tj = np.asarray(jnp.nanstd(jnp.moveaxis(mc.frames_radial_m, 0, -1), axis=-1))
         out["noise_image_median_ratio_numpy/tofjax"] = float(np.nanmedian(np.nanstd(d_np, axis=-1) / std_tj))
@@ -196,7 +196,7 @@ def table(r: dict) -> str:
         lines.append(f"{size + ' analytic, exposure prepared':<50}{c['analytic_prepared_images_per_s']:>9.0f} images/s")
         lines.append(f"{size + ' noise image only, camera prepared':<50}{c['noise_image_camera_per_s']:>9.0f} images/s"
                      f"{'':>24}  {target[1]}")
-        lines.append(f"{size + ' noise image only, camera too (tj.noise_image)':<50}{c['noise_image_per_s']:>9.0f} images/s")
+        lines.append(f"{size + ' noise image only, camera too':<50}{c['noise_image_per_s']:>9.0f} images/s")
         lines.append(f"{size + ' noise image only, depth map, camera prepared':<50}"
                      f"{c['noise_image_depth_map_per_s']:>9.0f} images/s")
         lines.append(f"{size + ' noise image only, exposure prepared':<50}{c['noise_image_prepared_per_s']:>9.0f} images/s")

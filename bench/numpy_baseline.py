@@ -47,9 +47,9 @@ class Baseline:
         self.d_u = self.c / (2.0 * self.f_mod)
         # Waveforms on the time grid (one period), and the phase-shifted references.
         t = np.arange(grid) / grid
-        self.illum = np.asarray(tj.waveform(params.illumination_waveform, t))
+        self.illum = np.asarray(tj.waveforms.waveform(params.illumination_waveform, t))
         steps = np.arange(self.n_phases) / self.n_phases
-        self.refs = np.stack([np.asarray(tj.waveform(params.reference_waveform, (t - s) % 1.0))
+        self.refs = np.stack([np.asarray(tj.waveforms.waveform(params.reference_waveform, (t - s) % 1.0))
                               for s in steps])  # (phases, grid)
         self.t = t
         # Optical path (Eqs 3.1-3.18): the distance cancels in the collection gain.
@@ -63,7 +63,7 @@ class Baseline:
         qe = _f(pix.photo_responsivity_a_per_w) * e_photon / _f(k.elementary_charge_c)
         mean_power = float(np.mean(self.illum))
         self.active_per_s_m2 = _f(ill.peak_power_w) / spot_per_d2 * gain_m2 * mean_power / e_photon * qe  # x t / d^2
-        photon_irr_per_lx = _f(tj.background_photon_irradiance(scene.background, 1.0, ill.wavelength_m,
+        photon_irr_per_lx = _f(tj.optics.background_photon_irradiance(scene.background, 1.0, ill.wavelength_m,
                                                                  scene.filter_half_width_m, k))
         self.background_per_s_lx = photon_irr_per_lx * gain_m2 * qe  # x t x lux
         self.contrast = _f(pix.demodulation_contrast)

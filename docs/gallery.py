@@ -115,8 +115,7 @@ def fig5_09(it):
 
 def fig5_09_dual(it):
     """§2.2: two frequencies (80.32 and 60.24 MHz) over 0.3-7.4 m, wrong-unwrap fraction."""
-    r = tj.simulate_multifrequency(tj.Params(), tj.Sweep.linspace("distance", 0.3, 7.4, 120), jax.random.key(10),
-                                   it, [80.32e6, 60.24e6])
+    r = tj.simulate(tj.Camera(tj.Params(), frequencies_hz=[80.32e6, 60.24e6]), tj.Sweep.linspace("distance", 0.3, 7.4, 120), jax.random.key(10), it)
     return plots.multifrequency_distance(r)
 
 

@@ -5,7 +5,7 @@ Per file and row: the measured depth mean against the real (stage) distance with
 expected depth (its wiggling and offset), the depth error of both, the amplitude (absolute), the
 depth noise (absolute and relative to the distance), and the model / measured ratio of every
 observable. The model is the hard analytic path (:func:`tofjax.predict`, or
-:func:`tofjax.predict_multifrequency` with the file's fusion for several frequencies) of the camera
+:func:`tofjax.predict` of a multi-frequency camera with the file's fusion for several frequencies) of the camera
 the file was taken with (the configuration plus the file's metadata overrides,
 :func:`fitting.read_measurement`). A row the model cannot measure (pixel or ADC saturated: no
 value) or where its closed form is a caveat (near a limit, low SNR, coarse quantisation), and a
@@ -111,7 +111,7 @@ def compare_measurement(m: Measurement) -> FileComparison:
         return value[:n] if part == "rows" else value[n:]
 
     c = float(m.config.params.constants.speed_of_light_m_per_s)
-    period = (float(tj.extended_range_m(m.frequencies_hz, c)) if len(m.frequencies_hz) > 1
+    period = (float(tj.stats.extended_range_m(m.frequencies_hz, c)) if len(m.frequencies_hz) > 1
               else c / (2.0 * m.frequencies_hz[0]))
     truth = np.asarray(m.sweep.distance_m)
     model = {name: get(name, "rows") for name in _QUANTITIES}
@@ -134,9 +134,9 @@ def compare_measurement(m: Measurement) -> FileComparison:
             f.append("model: ADC saturated")
         if not f and not np.isfinite(model["depth_std_m"][i]):
             f.append("model: no value")
-        if caveats[i] & tj.CAVEAT_NEAR_LIMIT:
+        if caveats[i] & tj.schema.CAVEAT_NEAR_LIMIT:
             f.append("model: near a limit")
-        if caveats[i] & tj.CAVEAT_LOW_SNR:
+        if caveats[i] & tj.schema.CAVEAT_LOW_SNR:
             f.append("model: low SNR")
         if valid_measured[i] < 1.0:
             f.append(f"measured: {valid_measured[i]:.3g} of frames valid")

@@ -9,7 +9,7 @@ metadata must match the configuration: a file of one frequency against a configu
 multi-frequency file (format 2, ``modulation_frequencies_hz``) is modelled as its camera fused the
 frequencies (``frequency_fusion`` in the file, else the configuration's): the depth noise is the
 fused distance's, the amplitude the first frequency's. The file's ``integration_time_per`` converts
-its integration times to the model's phase images (:func:`tofjax.phase_image_time_s`).
+its integration times to the model's phase images (:func:`tofjax.optics.phase_image_time_s`).
 
 Uncertainties, from ``n_frames`` and the model's own noise prediction at the current parameters
 (so the weights do not follow the data's fluctuations; the posterior includes their
@@ -151,7 +151,7 @@ def read_measurement(path: str | Path, config: tj.Config) -> Measurement:
     cols = dict(data.columns)
     per = data.integration_time_per
     if per != "phase_image":  # the model's unit is one phase image
-        cols["integration_time_s"] = tj.phase_image_time_s(cols["integration_time_s"], per, data.n_phases, len(f_file))
+        cols["integration_time_s"] = tj.optics.phase_image_time_s(cols["integration_time_s"], per, data.n_phases, len(f_file))
     for name in OPERATING_POINT_COLUMNS:
         empty = np.isnan(cols[name])
         if np.any(empty):

@@ -63,18 +63,18 @@ class Observables(eqx.Module):
     valid_fraction: Array
     pixel_saturated_fraction: Array
     adc_saturated_fraction: Array
-    caveats: Array  # tofjax.CAVEATS bits (of any frequency)
+    caveats: Array  # tofjax.schema.CAVEATS bits (of any frequency)
 
 
 def observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str,
                 smooth: tj.Smooth | None) -> Observables:
     """:class:`Observables` of one camera: :func:`tofjax.predict`, or
-    :func:`tofjax.predict_multifrequency` for several frequencies (its fused depth noise)."""
+    :func:`tofjax.predict` of a multi-frequency camera for several frequencies (its fused depth noise)."""
     if len(frequencies_hz) < 2:
         r = tj.predict(params, sweep, smooth=smooth)
         return Observables(r.amplitude_mean_lsb, r.amplitude_std_lsb, r.depth_mean_m, r.depth_std_m,
                            r.valid_fraction, r.pixel_saturated_fraction, r.adc_saturated_fraction, r.caveats)
-    m = tj.predict_multifrequency(params, sweep, frequencies_hz, fusion=fusion, smooth=smooth)
+    m = tj.predict(tj.Camera(params, smooth=smooth, frequencies_hz=frequencies_hz, fusion=fusion), sweep)
     p = m.per_frequency
     caveats = p.caveats[0]
     for k in range(1, len(frequencies_hz)):
@@ -146,7 +146,7 @@ BAND_PARAMETERS = ("illumination.wavelength_m", "scene.filter_half_width_m")
 
 def _photons_per_lux(params: tj.Params, lamp: str) -> float:
     """In-band background photon irradiance per lux of ``lamp`` through ``params``' filter, 1/(s m^2 lx)."""
-    return float(tj.background_photon_irradiance(lamp, 1.0, params.illumination.wavelength_m,
+    return float(tj.optics.background_photon_irradiance(lamp, 1.0, params.illumination.wavelength_m,
                                                  params.scene.filter_half_width_m, params.constants))
 
 

@@ -119,7 +119,7 @@ class VirtualCamera:
     @property
     def depth_wrap_m(self) -> float:
         """The unambiguity range: the model's depth is wrapped into [0, c / 2 f)."""
-        return tj.SPEED_OF_LIGHT_M_PER_S / (2.0 * self.modulation_frequency_hz)
+        return tj.optics.SPEED_OF_LIGHT_M_PER_S / (2.0 * self.modulation_frequency_hz)
 
     def grab(self, n: int) -> Frames:
         width, height = self.roi

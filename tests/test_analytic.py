@@ -125,7 +125,7 @@ LEAVES = tuple(PARAMS_TO_DIFF.values())
 @eqx.filter_jit
 def _smooth_values(x, params, sweep):
     """(depth std, mean amplitude) of the first point in the smooth mode, with the leaves LEAVES = x."""
-    r = tj.predict(tj.set_leaves(params, dict(zip(LEAVES, x, strict=True))), sweep, smooth=tj.Smooth())
+    r = tj.predict(tj.schema.set_leaves(params, dict(zip(LEAVES, x, strict=True))), sweep, smooth=tj.Smooth())
     return jnp.stack([r.depth_std_m[0], r.amplitude_mean_lsb[0]])
 
 
@@ -136,7 +136,7 @@ _smooth_jacobian = eqx.filter_jit(jax.jacfwd(_smooth_values))
 def _check_smooth_gradients(base, sweep, names, rtol=1e-4):
     """The Jacobian against central finite differences (step 1e-6 relative) of both outputs, for
     the leaves ``names``; a derivative below 1e-6 of value/leaf counts as zero at this precision."""
-    x0 = np.array([float(tj.get_leaf(base, leaf)) for leaf in LEAVES])
+    x0 = np.array([float(tj.schema.get_leaf(base, leaf)) for leaf in LEAVES])
     jac = np.asarray(_smooth_jacobian(jnp.asarray(x0), base, sweep))
     at = np.asarray(_smooth_values(jnp.asarray(x0), base, sweep))
     assert np.all(np.isfinite(jac))
@@ -255,11 +255,11 @@ def test_caveats_say_where_the_closed_form_is_not_what_frames_show():
     d = np.array([1.0, 0.3775, 6.0])
     r = tj.predict(tj.Params(pixel=tj.Pixel(sbi=False)), tj.Sweep("distance", d))
     codes = np.asarray(r.caveats)
-    assert codes[0] == 0 and codes[1] & tj.CAVEAT_NEAR_LIMIT and not codes[2] & tj.CAVEAT_NEAR_LIMIT
+    assert codes[0] == 0 and codes[1] & tj.schema.CAVEAT_NEAR_LIMIT and not codes[2] & tj.schema.CAVEAT_NEAR_LIMIT
     quiet = tj.predict(tj.Params(pixel=tj.Pixel(noise=False)), tj.Sweep("distance", d))
-    assert np.all(np.asarray(quiet.caveats) & tj.CAVEAT_COARSE_QUANTIZATION)
+    assert np.all(np.asarray(quiet.caveats) & tj.schema.CAVEAT_COARSE_QUANTIZATION)
     dim = tj.predict(tj.Params(illumination=tj.Illumination(peak_power_w=0.02)), tj.Sweep("distance", d))
-    assert np.asarray(dim.caveats)[2] & tj.CAVEAT_LOW_SNR and len(dim.caveat_summary()) >= 1
+    assert np.asarray(dim.caveats)[2] & tj.schema.CAVEAT_LOW_SNR and len(dim.caveat_summary()) >= 1
     assert tj.simulate(tj.Params(), tj.Sweep("distance", d), jax.random.key(0), 4).caveats is None
 
 

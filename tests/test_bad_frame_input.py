@@ -91,14 +91,14 @@ def test_load_returns_raises_the_value_error_it_promises(tmp_path):
     _files(tmp_path)
     for name in ("plain", "crc", "no_returns", "long_path", "bright"):
         with pytest.raises(ValueError, match=str(tmp_path / name)):
-            tj.load_returns(tmp_path / f"{name}.npz")
+            tj.frameio.load_returns(tmp_path / f"{name}.npz")
     # An empty pixel's true distance is inf (no surface), not half of its empty path; with
     # radial_m given, no default is computed at all.
     path = np.zeros((2, 3, 2))
     radiance = np.zeros((2, 3, 2))
     path[0, 0], radiance[0, 0] = (3.0, 5.0), (0.1, 0.4)  # the strongest return is the second
     np.savez(tmp_path / "r.npz", path_m=path, radiance_per_w=radiance)
-    radial = np.asarray(tj.load_returns(tmp_path / "r.npz").radial_m)
+    radial = np.asarray(tj.frameio.load_returns(tmp_path / "r.npz").radial_m)
     assert radial[0, 0] == 2.5 and np.all(np.isposinf(radial.reshape(-1)[1:]))
 
 
@@ -151,7 +151,7 @@ def test_the_frame_api_refuses_what_the_command_line_refuses(tmp_path):
     import tofjax as tj
 
     params, settings = tj.Params(), tj.FrameSettings(subpixel_samples=1)
-    wall = tj.scene_returns(params, settings, tj.scenes.wall())
+    wall = tj.Camera(params, settings).returns(tj.scenes.wall())
     nan = float("nan")
     cases = [
         (lambda: tj.scenes.wall(nan), "tofjax.scenes.wall: distance_m = nan is out of range: allowed 0.01 <= value"),
@@ -161,19 +161,19 @@ def test_the_frame_api_refuses_what_the_command_line_refuses(tmp_path):
         (lambda: tj.scenes.sphere(radius_m=-1.0), "tofjax.scenes.sphere: radius_m = -1.0 is out of range"),
         (lambda: tj.scenes.corner(patches_per_side=0), "patches_per_side = 0 is out of range: allowed integer 1"),
         (lambda: tj.scenes.Plane((0, 0, 1), (0, 0, 0), 0.5), "Plane: normal = [0.0, 0.0, 0.0] is not a direction"),
-        (lambda: tj.scene_returns(params, settings, tj.scenes.wall(), sun_direction=(0, 0, 0)),
+        (lambda: tj.Camera(params, settings).returns(tj.scenes.wall(), sun_direction=(0, 0, 0)),
          "sun_direction = [0.0, 0.0, 0.0] is not a direction"),
-        (lambda: tj.scene_returns(params, settings, tj.scenes.wall(), bins=0), "bins = 0 is out of range"),
-        (lambda: tj.depth_returns(params, settings, np.full(SHAPE, 1e300), 0.5),
+        (lambda: tj.Camera(params, settings).returns(tj.scenes.wall(), bins=0), "bins = 0 is out of range"),
+        (lambda: tj.Camera(params, settings).returns(np.full(SHAPE, 1e300), reflectivity=0.5),
          "depth_m[0, 0] = 1e+300 is out of range: allowed 0.001 <= value <= 1000 [m]"),
-        (lambda: tj.depth_returns(params, settings, np.full(SHAPE, 1.0), 5.0), "reflectivity = 5.0 is out of range"),
+        (lambda: tj.Camera(params, settings).returns(np.full(SHAPE, 1.0), reflectivity=5.0), "reflectivity = 5.0 is out of range"),
         (lambda: tj.Returns(jnp.full((*SHAPE, 1), nan), wall.radiance_per_w, wall.ambient_reflectivity,
                             wall.radial_m), "tofjax.Returns: path_m[0, 0, 0] = nan is out of range"),
         (lambda: tj.Returns(wall.path_m, -wall.radiance_per_w, wall.ambient_reflectivity, wall.radial_m),
          "tofjax.Returns: radiance_per_w[0, 0, 0] = -"),
         (lambda: tj.Returns(wall.path_m, wall.radiance_per_w[:, :-1], wall.ambient_reflectivity, wall.radial_m),
          "path_m has shape (172, 224, 1) and radiance_per_w (172, 223, 1): allowed equal shapes"),
-        (lambda: tj.render_frame(params, settings, wall, jax.random.key(0), 0),
+        (lambda: tj.simulate(tj.Camera(params, settings), wall, jax.random.key(0), 0),
          "frames = 0 is out of range: allowed integer >= 1"),
     ]
     for make, says in cases:
@@ -182,18 +182,17 @@ def test_the_frame_api_refuses_what_the_command_line_refuses(tmp_path):
         assert says in str(err.value) and "\n" not in str(err.value), str(err.value)
     # A length-2 sun direction is a direction; one whose length underflows too.
     for sun in ((0.0, -2.0, 0.0), (1e-200, 1e-200, 0.0)):
-        assert np.all(np.isfinite(np.asarray(tj.scene_returns(params, settings, tj.scenes.wall(), sun_direction=sun)
+        assert np.all(np.isfinite(np.asarray(tj.Camera(params, settings).returns(tj.scenes.wall(), sun_direction=sun)
                                              .ambient_reflectivity)))
     # Traced values are checked when the program runs; a pixel that sees nothing (radial inf) passes.
     with pytest.raises(Exception, match="tofjax.scenes.wall: distance_m is out of range"):
         jax.jit(lambda d: tj.scenes.wall(d).primitives[0].point)(nan).block_until_ready()
     depth = np.full(SHAPE, 1.5)
     depth[:, :10] = np.inf  # no surface there
-    ball = tj.depth_returns(params, settings, depth, 0.5)
+    ball = tj.Camera(params, settings).returns(depth, reflectivity=0.5)
     assert np.isinf(np.asarray(ball.radial_m)).any()
-    traced = jax.jit(lambda r: tj.predict_frame(params, settings, r).radial_true_m)(ball)  # reads radial_m
+    traced = jax.jit(lambda r: tj.predict(tj.Camera(params, settings), r).radial_true_m)(ball)  # reads radial_m
     np.testing.assert_array_equal(traced, ball.radial_m)
     with pytest.raises(Exception, match="tofjax.Returns: radiance_per_w is out of range"):
-        jax.jit(lambda r: tj.noise_image(params, settings, tj.Returns(r.path_m, -r.radiance_per_w,
-                                                                      r.ambient_reflectivity, r.radial_m)))(
+        jax.jit(lambda r: tj.Camera(params, settings).prepare().noise_image(tj.Returns(r.path_m, -r.radiance_per_w, r.ambient_reflectivity, r.radial_m)))(
             ball).block_until_ready()

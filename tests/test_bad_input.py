@@ -290,7 +290,7 @@ _CONFIG_LINES = None
 def _default_config_lines() -> list[str]:
     global _CONFIG_LINES
     if _CONFIG_LINES is None:
-        from tofjax import default_config_text
+        from tofjax.schema import default_config_text
 
         _CONFIG_LINES = default_config_text().splitlines()
     return _CONFIG_LINES

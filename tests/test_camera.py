@@ -1,6 +1,7 @@
 """One camera, two verbs (tofjax._camera): tj.predict(camera, scene) and tj.simulate(camera, scene, key,
-frames) are the functions they route to, for sweeps, several frequencies and frames; they work under
-jit, vmap and grad; bad input is one clear line."""
+frames) for sweeps, several frequencies and frames, and the two explicit preparations
+(camera.expose(scene), camera.prepare()); they work under jit, vmap and grad; bad input is one clear
+line."""
 
 import equinox as eqx
 import jax
@@ -42,28 +43,31 @@ def test_several_frequencies_are_one_camera():
     camera = tj.Camera.from_config(config)
     assert camera.multifrequency and camera.frequencies_hz == (80.32e6, 60.24e6)
     fused = tj.predict(camera, SWEEP)
-    old = tj.predict_multifrequency(config.params, SWEEP, [80.32e6, 60.24e6], fusion="inverse_variance")
-    np.testing.assert_array_equal(fused.depth_std_m, old.depth_std_m)
+    # Inverse-variance fusion of the frequencies' own depth noise: sigma = 1 / sqrt(sum 1 / sigma_i^2).
+    alone = [tj.predict(eqx.tree_at(lambda p: p.illumination_waveform.modulation_frequency_hz, config.params, f),
+                        SWEEP).depth_std_m for f in camera.frequencies_hz]
+    np.testing.assert_allclose(fused.depth_std_m, 1 / np.sqrt(sum(1 / np.asarray(s) ** 2 for s in alone)), rtol=1e-12)
+    assert np.all(np.asarray(fused.depth_std_m) < np.minimum(*alone))
     assert isinstance(tj.simulate(camera, SWEEP, jax.random.key(0), 32), tj.MultiFrequencyResult)
     with pytest.raises(ValueError, match=r"^a frame simulates one modulation frequency: this camera has 2 "):
         tj.predict(camera, scenes.wall(1.3))
 
 
-def test_frames_of_a_scene_depth_map_or_returns_are_the_frame_functions():
+def test_frames_of_a_scene_depth_map_or_returns():
     camera = _small(tj.Config())
     returns = camera.returns(scenes.wall(1.3, 0.9))
     an = tj.predict(camera, returns)
     assert isinstance(an, tj.FrameResult) and an.depth_std_m.shape == (ROWS, COLS)
-    np.testing.assert_allclose(an.depth_std_m, tj.predict_frame(camera.params, camera.settings, returns).depth_std_m,
-                               rtol=1e-13)
     np.testing.assert_allclose(tj.predict(camera, scenes.wall(1.3, 0.9)).depth_std_m, an.depth_std_m, rtol=1e-13)
+    np.testing.assert_allclose(camera.expose(returns).noise_image(), an.depth_std_m, rtol=1e-12)
     depth = tj.predict(camera, np.full((ROWS, COLS), 1.3))  # a depth map: Z depth, reflectivity 0.9
     assert depth.depth_std_m.shape == (ROWS, COLS) and np.all(np.isfinite(depth.depth_std_m))
+    # The verb's kept frames are those the prepared camera streams and the exposed scene samples.
     mc = tj.simulate(camera, returns, jax.random.key(1), 2, keep_frames=2)
-    old = tj.render_frame(camera.params, camera.settings, returns, jax.random.key(1), 2, keep_frames=2)
-    np.testing.assert_allclose(mc.frames_radial_m, old.frames_radial_m, rtol=1e-15, atol=0)
+    streamed = camera.prepare().sample(returns, jax.random.key(1), 2)
+    np.testing.assert_allclose(streamed.radial_m, mc.frames_radial_m, rtol=1e-15)
     np.testing.assert_array_equal(camera.expose(returns).sample(jax.random.key(1), 2).valid,
-                                  old.result.valid.transpose(2, 0, 1))
+                                  mc.result.valid.transpose(2, 0, 1))
 
 
 def test_the_verbs_work_under_jit_vmap_and_grad():

@@ -40,7 +40,7 @@ def files(tmp_path_factory):
                                                 "depth_std_m": np.asarray(r.depth_std_m)})
     amp_only = _file(tmp / "amplitude_only.csv", {**_operating(d), "amplitude_mean_lsb": np.asarray(r.amplitude_mean_lsb),
                                                   "amplitude_std_lsb": np.asarray(r.amplitude_std_lsb)})
-    m = tj.predict_multifrequency(tj.Params(), tj.Sweep("distance", d), FREQS)
+    m = tj.predict(tj.Camera(tj.Params(), frequencies_hz=FREQS), tj.Sweep("distance", d))
     multi = _file(tmp / "multi.csv", {**_operating(d), "depth_mean_m": np.asarray(m.depth_mean_m),
                                       "depth_std_m": np.asarray(m.depth_std_m)},
                   modulation_frequencies_hz=",".join(map(repr, FREQS)), frequency_fusion="inverse_variance")
@@ -105,11 +105,11 @@ def test_fused_noise_matches_the_monte_carlo_for_every_fusion():
     p = tj.Params(scene=tj.Scene(illuminance_lx=0.0))
     sweep = tj.Sweep("distance", [0.6, 1.4, 2.2])
     for fusion in ("inverse_variance", "highest_frequency"):
-        a = tj.predict_multifrequency(p, sweep, FREQS, fusion=fusion)
-        m = tj.simulate_multifrequency(p, sweep, jax.random.key(3), 2000, FREQS, fusion=fusion)
+        a = tj.predict(tj.Camera(p, frequencies_hz=FREQS, fusion=fusion), sweep)
+        m = tj.simulate(tj.Camera(p, frequencies_hz=FREQS, fusion=fusion), sweep, jax.random.key(3), 2000)
         np.testing.assert_allclose(np.asarray(m.depth_std_m), np.asarray(a.depth_std_m), rtol=0.06)
     per = np.asarray(a.per_frequency.depth_std_m)
-    inverse = tj.predict_multifrequency(p, sweep, FREQS)
+    inverse = tj.predict(tj.Camera(p, frequencies_hz=FREQS), sweep)
     np.testing.assert_allclose(np.asarray(inverse.depth_std_m), (per[0] ** -2 + per[1] ** -2) ** -0.5, rtol=1e-12)
     np.testing.assert_allclose(np.asarray(a.depth_std_m), per[0], rtol=1e-12)  # highest frequency alone
 
@@ -140,7 +140,7 @@ def test_datasheet_full_well_exposure_and_background_mixture():
     cfg = tj.Config().replace("scene.integration_time_per", "frame").replace(
         "illumination_waveform.extra_modulation_frequencies_hz", [60.24e6])
     assert float(cfg.params.scene.integration_time_s) == pytest.approx(2e-3 / 8, rel=1e-15)
-    assert tj.phase_image_time_s(4e-3, "frequency", 4) == pytest.approx(1e-3)
+    assert tj.optics.phase_image_time_s(4e-3, "frequency", 4) == pytest.approx(1e-3)
     # a mixture's background electrons are the sum of its sources' (Eq 3.4 per source)
     sweep = tj.Sweep("illuminance", [300.0])
     mix = tj.predict(tj.Params(scene=tj.Scene(extra_backgrounds=("led",), extra_illuminances_lx=[500.0])), sweep)
@@ -148,7 +148,7 @@ def test_datasheet_full_well_exposure_and_background_mixture():
     led = tj.predict(tj.Params(scene=tj.Scene(background="led")), tj.Sweep("illuminance", [500.0]))
     np.testing.assert_allclose(mix.noise.background_e, sun.noise.background_e + led.noise.background_e, rtol=1e-12)
     # a white LED has almost nothing at 850 nm behind a 20 nm filter, sunlight plenty
-    filtered = lambda lamp: float(tj.background_photon_irradiance(lamp, 1000.0, 850e-9, 20e-9, tj.PhysicalConstants()))  # noqa: E731
+    filtered = lambda lamp: float(tj.optics.background_photon_irradiance(lamp, 1000.0, 850e-9, 20e-9, tj.PhysicalConstants()))  # noqa: E731
     assert 0 < filtered("led") < filtered("sunlight") / 100
     with pytest.raises(tj.ConfigError, match="extra_backgrounds.*names 1 source.*gives 0"):
         tj.Config().replace("scene.extra_backgrounds", ["led"])

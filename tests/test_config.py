@@ -14,7 +14,7 @@ from tofjax._schema import KEYS
 
 
 def test_default_file_parses_to_the_defaults_and_comments_every_key():
-    text = tj.default_config_text()
+    text = tj.schema.default_config_text()
     parsed = tomllib.loads(text)
     assert tj.config_from_dict(parsed).values == tj.Config().values
     lines = text.splitlines()

@@ -66,7 +66,7 @@ def test_sine_pair_correlates_to_a_cosine():
     ill, ref = _waves("sine", 1.0, "sine", 1.0)
     t = np.linspace(0, 1, 13)
     a = np.asarray(correlation(ill, ref, 4)(t))
-    theta = tofjax.phase_steps(4)
+    theta = tofjax.waveforms.phase_steps(4)
     np.testing.assert_allclose(a, 0.5 + 0.25 * np.cos(2 * np.pi * t[:, None] - theta[None, :]), atol=1e-12)
 
 

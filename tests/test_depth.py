@@ -11,7 +11,7 @@ from tofjax import _depth
 
 @pytest.mark.parametrize("n", [2, 3, 4, 5])
 def test_estimator_recovers_phase_and_amplitude_of_a_cosine(n):
-    theta = tofjax.phase_steps(n)
+    theta = tofjax.waveforms.phase_steps(n)
     phi = np.linspace(0, 2 * np.pi, 37, endpoint=False)
     values = 123.0 * np.cos(phi[:, None] - theta[None, :])
     z = _depth.demodulate(jnp.asarray(values))
@@ -110,7 +110,7 @@ def test_delta_method_matches_sampled_phase_images(n):
     variances (the chain's case away from limits: the taps' charges add to the same total in every
     phase image) make the noise circular and the closed form exact at every SNR; unequal ones (the
     chain near a limit) leave it exact to second order, within 2 % at v = 0.05."""
-    theta = tofjax.phase_steps(n)
+    theta = tofjax.waveforms.phase_steps(n)
     rng = np.random.default_rng(7)
     for v_target, var in ((1e-3, np.ones(n)), (0.05, np.ones(n)), (0.5, np.ones(n)), (0.05, np.linspace(0.7, 1.3, n))):
         amp = np.sqrt(np.mean(var) / v_target / (n / 2 if n > 2 else 1.0))

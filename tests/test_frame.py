@@ -55,7 +55,7 @@ def test_the_pixel_on_the_axis_is_the_centre_pixel_model(params, one_ray):
     """Same electrons, same noise: every expected quantity of the axis pixel of a wall at d equals
     tj.predict at distance d (the thesis' centre pixel), to rounding."""
     d = 1.3
-    frame = tj.predict_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(d, 0.9)))
+    frame = tj.predict(tj.Camera(params, one_ray), scenes.wall(d, 0.9))
     centre = tj.predict(params, tj.Sweep("distance", [d]))
     r = frame.result
     for name in ("tap_a_e", "tap_b_e", "code_mean", "depth_mean_m", "depth_std_m", "amplitude_mean_lsb",
@@ -70,9 +70,9 @@ def test_the_pixel_on_the_axis_is_the_centre_pixel_model(params, one_ray):
 def test_monte_carlo_frames_match_the_analytic_noise_image(params, one_ray):
     """The Monte Carlo std over 300 frames against the analytic noise image, pixel by pixel: the
     ratio's spread is what 300 frames allow (relative std error 1/sqrt(2 * 299) = 4.1 %)."""
-    returns = tj.scene_returns(params, one_ray, scenes.wall(1.3, 0.9))
-    mc = tj.render_frame(params, one_ray, returns, jax.random.key(1), 300, keep_frames=2)
-    an = tj.predict_frame(params, one_ray, returns)
+    returns = tj.Camera(params, one_ray).returns(scenes.wall(1.3, 0.9))
+    mc = tj.simulate(tj.Camera(params, one_ray), returns, jax.random.key(1), 300, keep_frames=2)
+    an = tj.predict(tj.Camera(params, one_ray), returns)
     ratio = np.asarray(mc.depth_std_m / an.depth_std_m)
     assert abs(np.mean(ratio) - 1.0) < 3 * 0.041 / np.sqrt(ratio.size) + 0.005  # the mean of 651 ratios
     assert 0.03 < np.std(ratio) < 0.055
@@ -81,7 +81,7 @@ def test_monte_carlo_frames_match_the_analytic_noise_image(params, one_ray):
     # A prepared scene renders the same frames (frame k of a key is frame k, however many are drawn:
     # the same draws, to the last bit's rounding, as each program is fused on its own) and the same
     # noise image.
-    prepared = tj.prepare_frame(params, one_ray, returns)
+    prepared = tj.Camera(params, one_ray).expose(returns)
     np.testing.assert_allclose(prepared.render(jax.random.key(1), 2, keep_frames=2).frames_radial_m,
                                mc.frames_radial_m, rtol=1e-15, atol=0)
     np.testing.assert_allclose(prepared.predict().depth_std_m, an.depth_std_m, rtol=1e-12)
@@ -91,54 +91,53 @@ def test_monte_carlo_frames_match_the_analytic_noise_image(params, one_ray):
     np.testing.assert_allclose(loud.depth_std_m, mc.depth_std_m, rtol=1e-13)
     # The noise image alone (a program that computes nothing else) is the analytic frame's (to the
     # last bits: XLA fuses the smaller program differently), also inside a jit of the user's, and
-    # with the exposure (tj.noise_image).
+    # with the exposure (a prepared camera's noise_image).
     np.testing.assert_allclose(prepared.noise_image(), prepared.predict().depth_std_m, rtol=1e-13)
     np.testing.assert_allclose(jax.jit(lambda f: f.noise_image())(prepared), an.depth_std_m, rtol=1e-12)
-    np.testing.assert_allclose(tj.noise_image(params, one_ray, returns), an.depth_std_m, rtol=1e-12)
+    np.testing.assert_allclose(tj.Camera(params, one_ray).prepare().noise_image(returns), an.depth_std_m, rtol=1e-12)
     sampled = prepared.sample(jax.random.key(1), 2)
     kept = mc.result.valid.transpose(2, 0, 1)
     np.testing.assert_array_equal(sampled.valid, kept)
     np.testing.assert_allclose(sampled.radial_m, np.where(kept, mc.frames_radial_m, np.nan), rtol=1e-15, atol=0)
     np.testing.assert_allclose(sampled.amplitude_lsb, mc.result.amplitude_lsb.transpose(2, 0, 1), rtol=1e-15, atol=0)
-    # Exposed in the same call (tj.sample_frame), and vmapped over scenes inside a jit of the user's:
+    # Exposed in the same call (a prepared camera's sample), and vmapped over scenes inside a jit of the user's:
     # the same frames.
-    direct = tj.sample_frame(params, one_ray, returns, jax.random.key(1), 2)
-    batch = jax.jit(jax.vmap(lambda d: tj.sample_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(d, 0.9)),
-                                                       jax.random.key(1), 2)))(jnp.array([1.3, 1.3]))
+    direct = tj.Camera(params, one_ray).prepare().sample(returns, jax.random.key(1), 2)
+    batch = jax.jit(jax.vmap(lambda d: tj.Camera(params, one_ray).prepare().sample(tj.Camera(params, one_ray).returns(scenes.wall(d, 0.9)), jax.random.key(1), 2)))(jnp.array([1.3, 1.3]))
     for frames in (direct, *(jax.tree_util.tree_map(lambda x, i=i: x[i], batch) for i in range(2))):
         np.testing.assert_array_equal(frames.valid, sampled.valid)
         np.testing.assert_allclose(frames.radial_m, sampled.radial_m, rtol=1e-14, atol=0)
         np.testing.assert_allclose(frames.amplitude_lsb, sampled.amplitude_lsb, rtol=1e-14, atol=0)
 
 
-def test_a_prepared_camera_is_the_frame_functions_on_every_scene(params, one_ray):
-    """prepare_camera once, then scene after scene: the same frames, noise image, analytic frame and
+def test_a_prepared_camera_is_the_verbs_on_every_scene(params, one_ray):
+    """camera.prepare() once, then scene after scene: the same frames, noise image, analytic frame and
     render as the functions of (params, settings, returns), which prepare the camera on every call;
     also inside a jit of the user's, vmapped over scenes (the camera closed over), and with the
     camera prepared inside a gradient (d noise / d integration time against finite differences)."""
     pattern = tj.draw_pattern(params, tj.FrameSettings(prnu_sigma=0.02, phase_offset_sigma_rad=0.01), (ROWS, COLS))
-    camera = tj.prepare_camera(params, one_ray, pattern)
+    camera = tj.Camera(params, one_ray, pattern=pattern).prepare()
     assert camera.shape == (ROWS, COLS)
-    walls = [tj.scene_returns(params, one_ray, scenes.tilted_plane(d, 20.0)) for d in (1.1, 1.6)]
+    walls = [tj.Camera(params, one_ray).returns(scenes.tilted_plane(d, 20.0)) for d in (1.1, 1.6)]
     for returns in walls:
         key = jax.random.key(4)
         np.testing.assert_array_equal(camera.sample(returns, key, 2).radial_m,
-                                      tj.sample_frame(params, one_ray, returns, key, 2, pattern=pattern).radial_m)
-        np.testing.assert_array_equal(camera.noise_image(returns), tj.noise_image(params, one_ray, returns, pattern))
-        a, b = camera.predict(returns), tj.predict_frame(params, one_ray, returns, pattern)
+                                      tj.Camera(params, one_ray, pattern=pattern).prepare().sample(returns, key, 2).radial_m)
+        np.testing.assert_array_equal(camera.noise_image(returns), tj.Camera(params, one_ray, pattern=pattern).prepare().noise_image(returns))
+        a, b = camera.predict(returns), tj.predict(tj.Camera(params, one_ray, pattern=pattern), returns)
         for name in ("radial_m", "depth_std_m", "amplitude_lsb", "intensity_e", "flags", "z_m"):
             np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
         np.testing.assert_array_equal(camera.render(returns, key, 3).depth_std_m,
-                                      tj.render_frame(params, one_ray, returns, key, 3, pattern=pattern).depth_std_m)
+                                      tj.simulate(tj.Camera(params, one_ray, pattern=pattern), returns, key, 3).depth_std_m)
     distances = jnp.array([1.1, 1.6])
-    batch = jax.jit(jax.vmap(lambda d: camera.noise_image(tj.scene_returns(params, one_ray, scenes.tilted_plane(d, 20.0)))))
+    batch = jax.jit(jax.vmap(lambda d: camera.noise_image(tj.Camera(params, one_ray).returns(scenes.tilted_plane(d, 20.0)))))
     np.testing.assert_allclose(batch(distances), np.stack([camera.noise_image(r) for r in walls]), rtol=1e-12)
 
     returns = walls[0]
 
     def noise(t):
         p = eqx.tree_at(lambda q: q.scene.integration_time_s, params, t)
-        return tj.prepare_camera(p, one_ray, pattern).noise_image(returns)[CENTRE]
+        return tj.Camera(p, one_ray, pattern=pattern).prepare().noise_image(returns)[CENTRE]
 
     t0 = float(params.scene.integration_time_s)
     g, h = float(jax.grad(noise)(t0)), 1e-4 * t0
@@ -148,11 +147,11 @@ def test_a_prepared_camera_is_the_frame_functions_on_every_scene(params, one_ray
     with pytest.raises(TypeError, match=r"^returns must be tofjax.Returns, got NoneType$"):
         camera.noise_image(None)
     narrower = eqx.tree_at(lambda q: q.camera.optical_area_m, params, jnp.array([(COLS - 2) * PITCH, ROWS * PITCH]))
-    other = tj.scene_returns(narrower, one_ray, scenes.wall(1.0))
+    other = tj.Camera(narrower, one_ray).returns(scenes.wall(1.0))
     with pytest.raises(ValueError, match=rf"^the returns have {ROWS} x {COLS - 2} pixels, the camera {ROWS} x {COLS} "):
         camera.sample(other, jax.random.key(0))
-    with pytest.raises(TypeError, match=r"^pattern must be a tofjax.PixelPattern or None, got float$"):
-        tj.prepare_camera(params, one_ray, 0.5)
+    with pytest.raises(TypeError, match=r"^Camera: pattern must be a tofjax.PixelPattern or None, got float$"):
+        tj.Camera(params, one_ray, pattern=0.5).prepare()
 
 
 def test_rays_meet_the_nearest_surface_of_a_numpy_ray_caster():
@@ -216,7 +215,7 @@ def test_the_pixel_field_in_closed_form_is_the_rays(params):
     from tofjax._scene import pixel_directions, pixel_field
 
     settings = tj.FrameSettings(subpixel_samples=1)
-    rays = tj.frame_rays(params, settings)
+    rays = tj.optics.frame_rays(params, settings)
     field = pixel_field(params.camera, (ROWS, COLS))
     direction = np.asarray(pixel_directions(params.camera, (ROWS, COLS)))
     np.testing.assert_allclose(field.cos_field_angle, rays.cos_field_angle, rtol=1e-15)
@@ -226,7 +225,7 @@ def test_the_pixel_field_in_closed_form_is_the_rays(params):
     np.testing.assert_array_equal(direction[CENTRE], [0.0, 0.0, 1.0])
     # The corner pixel's field angle from the geometry alone: its centre lies (cols - 1) / 2 and (rows - 1) / 2
     # pitches off the axis, at the focal length f behind the lens centre.
-    f = float(tj.lens(params.camera).focal_length_m)
+    f = float(tj.optics.lens(params.camera).focal_length_m)
     x, y = (COLS - 1) / 2 * PITCH, (ROWS - 1) / 2 * PITCH
     assert float(field.cos_field_angle[0, 0]) == pytest.approx(f / np.sqrt(x * x + y * y + f * f), rel=1e-15)
 
@@ -236,7 +235,7 @@ def test_frames_sampled_in_several_chunks_are_the_kept_frames(params, one_ray, m
     frames), and frame k is still frame k of the key (the frames ``render`` keeps, drawn at once)."""
     from tofjax import _frame
 
-    prepared = tj.prepare_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(1.3, 0.9)))
+    prepared = tj.Camera(params, one_ray).expose(scenes.wall(1.3, 0.9))
     monkeypatch.setattr(_frame, "FRAME_CHUNK_ELEMENTS", 2 * ROWS * COLS * params.pixel.n_phases)
     sampled = prepared.sample(jax.random.key(1), 5)
     kept = prepared.render(jax.random.key(1), 5, keep_frames=5, raw=True)
@@ -252,17 +251,16 @@ def test_frames_sampled_in_several_chunks_are_the_kept_frames(params, one_ray, m
     np.testing.assert_array_equal(raw.codes, kept.result.codes.transpose(2, 3, 0, 1))
     for tap, kept_tap in ((raw.tap_a_e, kept.result.frames_tap_a_e), (raw.tap_b_e, kept.result.frames_tap_b_e)):
         np.testing.assert_allclose(tap, kept_tap.transpose(2, 3, 0, 1), rtol=1e-12)
-    # tj.sample_frame in several chunks (the frames' constants made once from the exposure, then the
+    # A prepared camera's sample in several chunks (the frames' constants made once from the exposure, then the
     # chunks drawn from them; one chunk makes them as it draws): the same frames.
-    direct = tj.sample_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(1.3, 0.9)),
-                             jax.random.key(1), 5)
+    direct = tj.Camera(params, one_ray).prepare().sample(tj.Camera(params, one_ray).returns(scenes.wall(1.3, 0.9)), jax.random.key(1), 5)
     np.testing.assert_array_equal(direct.valid, valid)
     np.testing.assert_allclose(direct.radial_m, sampled.radial_m, rtol=1e-14, atol=0)
     # Refused before any work, in one line naming the value.
     with pytest.raises(ValueError, match=r"^frames = 0 is out of range: allowed integer >= 1$"):
-        tj.sample_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(1.3, 0.9)), jax.random.key(1), 0)
+        tj.Camera(params, one_ray).prepare().sample(tj.Camera(params, one_ray).returns(scenes.wall(1.3, 0.9)), jax.random.key(1), 0)
     with pytest.raises(TypeError, match=r"^returns must be tofjax.Returns, got NoneType$"):
-        tj.sample_frame(params, one_ray, None, jax.random.key(1))
+        tj.Camera(params, one_ray).prepare().sample(None, jax.random.key(1))
 
 
 def test_a_flat_wall_falls_off_as_profile_times_cos4_times_incidence(params):
@@ -273,10 +271,10 @@ def test_a_flat_wall_falls_off_as_profile_times_cos4_times_incidence(params):
     n = 2.5
     p = eqx.tree_at(lambda q: q.illumination.fov_deg, params, jnp.asarray(20.0))
     s = tj.FrameSettings(subpixel_samples=1, illumination_falloff_exponent=n)
-    frame = tj.predict_frame(p, s, tj.scene_returns(p, s, scenes.wall(2.0, 0.9)))
+    frame = tj.predict(tj.Camera(p, s), scenes.wall(2.0, 0.9))
     signal = np.asarray(frame.result.noise.signal_e)
     flat = tj.FrameSettings(subpixel_samples=1)
-    axis = float(tj.predict_frame(p, flat, tj.scene_returns(p, flat, scenes.wall(2.0, 0.9))).result.noise.signal_e[CENTRE])
+    axis = float(tj.predict(tj.Camera(p, flat), scenes.wall(2.0, 0.9)).result.noise.signal_e[CENTRE])
     cos_phi = np.asarray(frame.direction)[..., 2]
     t = np.tan(np.deg2rad(10.0))
     s_n = np.pi * ((1 + t * t) ** (1 - n / 2) - 1) / (1 - n / 2)
@@ -291,12 +289,12 @@ def test_a_flat_wall_falls_off_as_profile_times_cos4_times_incidence(params):
 def test_incidence_angle_and_baseline(params, one_ray):
     """A wall tilted by a: the axis pixel's signal is cos(a) of the untilted wall's (Lambert at the
     same range). A baseline b moves the illumination: the axis pixel's path is d + sqrt(d^2 + b^2)."""
-    flat = tj.predict_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(1.5)))
-    tilted = tj.predict_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.tilted_plane(1.5, 40.0)))
+    flat = tj.predict(tj.Camera(params, one_ray), scenes.wall(1.5))
+    tilted = tj.predict(tj.Camera(params, one_ray), scenes.tilted_plane(1.5, 40.0))
     np.testing.assert_allclose(tilted.result.noise.signal_e[CENTRE], np.cos(np.deg2rad(40.0))
                                * flat.result.noise.signal_e[CENTRE], rtol=1e-12)
     b = tj.FrameSettings(subpixel_samples=1, baseline_m=(0.3, 0.0))
-    returns = tj.scene_returns(params, b, scenes.wall(1.5))
+    returns = tj.Camera(params, b).returns(scenes.wall(1.5))
     np.testing.assert_allclose(returns.path_m[CENTRE][0], 1.5 + np.hypot(1.5, 0.3), rtol=1e-14)
 
 
@@ -310,7 +308,7 @@ def test_two_returns_are_the_phasor_sum(params, one_ray):
                                        jnp.zeros(shape), radial)
     a, b = one(2.0, 0.1), one(3.1, 0.04)
     both = a + b
-    theta = np.asarray(tj.phase_steps(p.pixel.n_phases))
+    theta = np.asarray(tj.waveforms.phase_steps(p.pixel.n_phases))
 
     def phasor(r):
         c = charges(p, one_ray, r)
@@ -327,12 +325,12 @@ def test_a_step_edge_gives_the_flying_pixels_the_subpixel_coverage_predicts(para
     surface's own frame taken as its truth, so that the wiggling error cancels) are exactly those
     with 0 < coverage < 1, and they read between the two."""
     s = tj.FrameSettings(subpixel_samples=4)
-    f = float(tj.lens(params.camera).focal_length_m)
+    f = float(tj.optics.lens(params.camera).focal_length_m)
     e = 1.0 * (3.3 * PITCH / f)  # the edge crosses column 15 + 3.3 at a third of the sub-pixel pitch
-    step = tj.predict_frame(params, s, tj.scene_returns(params, s, scenes.step_edge(1.0, 1.6, e)))
-    near = tj.predict_frame(params, s, tj.scene_returns(params, s, scenes.wall(1.0)))
-    far = tj.predict_frame(params, s, tj.scene_returns(params, s, scenes.wall(1.6)))
-    rays = np.asarray(tj.frame_rays(params, s).samples)
+    step = tj.predict(tj.Camera(params, s), scenes.step_edge(1.0, 1.6, e))
+    near = tj.predict(tj.Camera(params, s), scenes.wall(1.0))
+    far = tj.predict(tj.Camera(params, s), scenes.wall(1.6))
+    rays = np.asarray(tj.optics.frame_rays(params, s).samples)
     coverage = np.mean(rays[..., 0] / rays[..., 2] * 1.0 <= e, axis=-1)
     m, mn, mf = (np.asarray(x.radial_m) for x in (step, near, far))
     flying = (np.abs(m - mn) > 3e-3) & (np.abs(m - mf) > 3e-3)
@@ -348,8 +346,8 @@ def test_two_bounce_light_of_a_corner(params, one_ray):
     reflectivity), and make the walls read long (multipath), more near the apex than at the edges.
     The apex column itself lies in both walls' planes, where the other wall is seen edge-on: no
     two-bounce light."""
-    bright = tj.scene_returns(params, one_ray, scenes.corner(1.5, patches_per_side=8, reflectivity=0.8), bins=8)
-    dim = tj.scene_returns(params, one_ray, scenes.corner(1.5, patches_per_side=8, reflectivity=0.4), bins=8)
+    bright = tj.Camera(params, one_ray).returns(scenes.corner(1.5, patches_per_side=8, reflectivity=0.8), bins=8)
+    dim = tj.Camera(params, one_ray).returns(scenes.corner(1.5, patches_per_side=8, reflectivity=0.4), bins=8)
     direct, indirect = np.asarray(bright.radiance_per_w[..., 0]), np.asarray(bright.radiance_per_w[..., 1:])
     np.testing.assert_allclose(np.asarray(dim.radiance_per_w[..., 0]), 0.5 * direct, rtol=1e-12)
     np.testing.assert_allclose(np.asarray(dim.radiance_per_w[..., 1:]), 0.25 * indirect, rtol=1e-12)
@@ -359,9 +357,8 @@ def test_two_bounce_light_of_a_corner(params, one_ray):
     assert np.max(indirect[:, COLS // 2]) < 1e-9 * np.max(indirect)
     assert np.all(np.asarray(bright.path_m[..., 1:])[lit] > np.broadcast_to(np.asarray(bright.path_m[..., :1]),
                                                                             lit.shape)[lit])
-    frame = tj.predict_frame(params, one_ray, bright)
-    plain = tj.predict_frame(params, one_ray, tj.Returns(bright.path_m[..., :1], bright.radiance_per_w[..., :1],
-                                                         bright.ambient_reflectivity, bright.radial_m))
+    frame = tj.predict(tj.Camera(params, one_ray), bright)
+    plain = tj.predict(tj.Camera(params, one_ray), tj.Returns(bright.path_m[..., :1], bright.radiance_per_w[..., :1], bright.ambient_reflectivity, bright.radial_m))
     bias = np.asarray(frame.radial_m - plain.radial_m)
     assert np.all(bias[:, off_apex] > 0)
     assert np.max(bias[:, 10:21]) > 3 * np.max(bias[:, [0, -1]])
@@ -390,22 +387,22 @@ def test_fixed_pattern_statistics_and_reproducibility(default_params):
 def test_fixed_pattern_effects_reach_the_frame(params, one_ray):
     """A pixel's phase offset phi reads as a return whose path is longer by phi c / (2 pi f); PRNU
     scales the signal pixel by pixel; a pixel with a lower full well is nearer to it."""
-    returns = tj.scene_returns(params, one_ray, scenes.wall(1.2))
+    returns = tj.Camera(params, one_ray).returns(scenes.wall(1.2))
     shape = (ROWS, COLS)
     offset = tj.draw_pattern(params, tj.FrameSettings(prnu_sigma=0.0, phase_offset_sigma_rad=0.05), shape)
-    drawn = tj.predict_frame(params, one_ray, returns, offset)
+    drawn = tj.predict(tj.Camera(params, one_ray, pattern=offset), returns)
     extra = np.asarray(offset.phase_offset_rad) * float(params.unambiguity_range_m) / np.pi  # phi c / (2 pi f)
     longer = tj.Returns(returns.path_m + extra[..., None], returns.radiance_per_w, returns.ambient_reflectivity,
                         returns.radial_m)
-    np.testing.assert_allclose(drawn.radial_m, tj.predict_frame(params, one_ray, longer).radial_m, rtol=1e-9)
+    np.testing.assert_allclose(drawn.radial_m, tj.predict(tj.Camera(params, one_ray), longer).radial_m, rtol=1e-9)
     assert np.std(extra) > 0.005
-    mean = tj.predict_frame(params, one_ray, returns)
+    mean = tj.predict(tj.Camera(params, one_ray), returns)
     for settings in (tj.FrameSettings(prnu_sigma=0.1), tj.FrameSettings(prnu_sigma=0.0, threshold_sigma=0.1)):
         pat = tj.draw_pattern(params, settings, shape)
-        drawn = tj.predict_frame(params, one_ray, returns, pat)
+        drawn = tj.predict(tj.Camera(params, one_ray, pattern=pat), returns)
         np.testing.assert_allclose(drawn.result.noise.signal_e, pat.gain * mean.result.noise.signal_e, rtol=1e-12)
     only_wells = eqx.tree_at(lambda q: q.full_well_scale, mean_pattern(params, shape), pat.full_well_scale)
-    drawn = tj.predict_frame(params, one_ray, returns, only_wells)
+    drawn = tj.predict(tj.Camera(params, one_ray, pattern=only_wells), returns)
     np.testing.assert_allclose(drawn.result.full_well_fraction * pat.full_well_scale, mean.result.full_well_fraction,
                                rtol=1e-12)
     assert np.std(np.asarray(pat.full_well_scale)) > 0.05
@@ -414,11 +411,11 @@ def test_fixed_pattern_effects_reach_the_frame(params, one_ray):
 def test_gradients_through_the_scene_match_finite_differences(params, one_ray):
     """d(depth error)/d(wall distance) and d(depth noise)/d(reflectivity) of the axis pixel."""
     def error(d):
-        f = tj.predict_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(d, 0.9)))
+        f = tj.predict(tj.Camera(params, one_ray), scenes.wall(d, 0.9))
         return f.radial_m[CENTRE] - d
 
     def noise(rho):
-        f = tj.predict_frame(params, one_ray, tj.scene_returns(params, one_ray, scenes.wall(1.3, rho)))
+        f = tj.predict(tj.Camera(params, one_ray), scenes.wall(1.3, rho))
         return f.depth_std_m[CENTRE]
 
     for fn, x0 in ((error, 1.3), (noise, 0.6)):
@@ -429,33 +426,33 @@ def test_gradients_through_the_scene_match_finite_differences(params, one_ray):
 
 
 def test_returns_npz_round_trip_and_refusals(params, tmp_path, one_ray):
-    r = tj.scene_returns(params, one_ray, scenes.sphere(1.0, 0.2, 2.0))
+    r = tj.Camera(params, one_ray).returns(scenes.sphere(1.0, 0.2, 2.0))
     path = tmp_path / "returns.npz"
-    tj.save_returns(path, r)
-    back = tj.load_returns(path, (ROWS, COLS))
+    tj.frameio.save_returns(path, r)
+    back = tj.frameio.load_returns(path, (ROWS, COLS))
     assert all(np.array_equal(a, b) for a, b in zip(jax.tree_util.tree_leaves(r), jax.tree_util.tree_leaves(back), strict=True))
     with pytest.raises(ValueError, match=r"path_m has 21 x 31 pixels, the camera 5 x 5"):
-        tj.load_returns(path, (5, 5))
+        tj.frameio.load_returns(path, (5, 5))
     bad = dict(path_m=np.ones((2, 2, 1)), radiance_per_w=-np.ones((2, 2, 1)))
     np.savez(tmp_path / "bad.npz", **bad)
     with pytest.raises(ValueError, match=r"bad.npz: radiance_per_w\[0, 0, 0\] = -1.0 is out of range"):
-        tj.load_returns(tmp_path / "bad.npz")
+        tj.frameio.load_returns(tmp_path / "bad.npz")
     np.savez(tmp_path / "none.npz", x=np.ones(2))
     with pytest.raises(ValueError, match="array 'path_m' is missing"):
-        tj.load_returns(tmp_path / "none.npz")
+        tj.frameio.load_returns(tmp_path / "none.npz")
 
 
 def test_a_depth_map_of_a_wall_is_the_wall(params, one_ray):
-    """tj.depth_returns of a flat wall's Z depth (or its radial distances) gives the returns of the
+    """camera.returns of a depth map of a flat wall's Z depth (or its radial distances) gives the returns of the
     built-in wall: normals from the map's finite differences, paths and radiance; a map of another
     shape is refused naming both shapes."""
-    wall = tj.scene_returns(params, one_ray, scenes.wall(1.3, 0.9))
+    wall = tj.Camera(params, one_ray).returns(scenes.wall(1.3, 0.9))
     for depth, radial in ((np.full((ROWS, COLS), 1.3), False), (np.asarray(wall.radial_m), True)):
-        got = tj.depth_returns(params, one_ray, depth, 0.9, radial=radial)
+        got = tj.Camera(params, one_ray).returns(depth, reflectivity=0.9, radial=radial)
         for name in ("path_m", "radiance_per_w", "ambient_reflectivity", "radial_m"):
             np.testing.assert_allclose(getattr(got, name), getattr(wall, name), rtol=1e-9, err_msg=name)
     with pytest.raises(ValueError, match=r"depth map has shape \(2, 3\), the camera \(21, 31\)"):
-        tj.depth_returns(params, one_ray, np.ones((2, 3)), 0.9)
+        tj.Camera(params, one_ray).returns(np.ones((2, 3)), reflectivity=0.9)
 
 
 def test_ply_round_trip(tmp_path):
@@ -545,15 +542,15 @@ def test_sharded_map_compiles_once_per_function():
         return 2.0 * x
 
     for _ in range(2):
-        np.testing.assert_array_equal(tj.sharded_map(fn, jnp.arange(3.0)), [0.0, 2.0, 4.0])
+        np.testing.assert_array_equal(tj.parallel.sharded_map(fn, jnp.arange(3.0)), [0.0, 2.0, 4.0])
     assert len(traced) == 1
     # A function that cannot be a cache key (a prepared camera's bound method: an equinox Module,
     # unhashable) still runs, built per call.
     params, settings = small(), tj.FrameSettings(subpixel_samples=1)
-    camera = tj.prepare_camera(params, settings)
-    walls = jax.vmap(lambda d: tj.scene_returns(params, settings, scenes.wall(d)))(jnp.array([1.0, 1.5]))
-    np.testing.assert_allclose(tj.sharded_map(camera.noise_image, walls)[1],
-                               camera.noise_image(tj.scene_returns(params, settings, scenes.wall(1.5))), rtol=1e-12)
+    camera = tj.Camera(params, settings).prepare()
+    walls = jax.vmap(lambda d: tj.Camera(params, settings).returns(scenes.wall(d)))(jnp.array([1.0, 1.5]))
+    np.testing.assert_allclose(tj.parallel.sharded_map(camera.noise_image, walls)[1],
+                               camera.noise_image(tj.Camera(params, settings).returns(scenes.wall(1.5))), rtol=1e-12)
 
 
 def test_sharded_over_two_cpu_devices_equals_unsharded(tmp_path):
@@ -567,8 +564,8 @@ def test_sharded_over_two_cpu_devices_equals_unsharded(tmp_path):
         p = eqx.tree_at(lambda q: q.camera.optical_area_m, tj.Params(), jnp.array([{COLS * PITCH!r}, {ROWS * PITCH!r}]))
         s = tj.FrameSettings(subpixel_samples=1)
         d = jnp.array([0.8, 1.1, 1.7])
-        noise = lambda x: tj.predict_frame(p, s, tj.scene_returns(p, s, scenes.wall(x))).depth_std_m
-        sharded = tj.sharded_map(noise, d)
+        noise = lambda x: tj.predict(tj.Camera(p, s), scenes.wall(x)).depth_std_m
+        sharded = tj.parallel.sharded_map(noise, d)
         single = jnp.stack([noise(x) for x in d])
         np.testing.assert_allclose(sharded, single, rtol=1e-12)
         print("ok", sharded.shape, len(sharded.sharding.device_set) if hasattr(sharded, "sharding") else 0)
@@ -580,12 +577,12 @@ def test_sharded_over_two_cpu_devices_equals_unsharded(tmp_path):
 
 
 def _flags(params, settings, geometry, **kwargs):
-    frame = tj.predict_frame(params, settings, tj.scene_returns(params, settings, geometry, **kwargs))
+    frame = tj.predict(tj.Camera(params, settings), geometry)
     return frame, np.asarray(frame.flags)
 
 
 def test_every_flag_on_a_scene_built_to_trigger_it(params, one_ray):
-    """Each bit of tj.FLAGS where the closed form says, and nowhere else; good pixels are unflagged."""
+    """Each bit of tj.schema.FLAGS where the closed form says, and nowhere else; good pixels are unflagged."""
     du = float(params.unambiguity_range_m)
     # Wrapped: a wall at 1.7 m, whose off-axis pixels lie beyond d_u = 1.866 m (radial = z / cos).
     frame, flags = _flags(params, one_ray, scenes.wall(1.7))
@@ -595,7 +592,7 @@ def test_every_flag_on_a_scene_built_to_trigger_it(params, one_ray):
     # Mixed: a step whose edge (at the board's 1 m) cuts the pixel column right of the axis, a fifth of
     # a pixel right of its centre (3 x 3 rays): that column only.
     three = tj.FrameSettings(subpixel_samples=3)
-    d = np.asarray(tj.frame_rays(params, one_ray).centre)[CENTRE[0]]
+    d = np.asarray(tj.optics.frame_rays(params, one_ray).centre)[CENTRE[0]]
     x = d[:, 0] / d[:, 2]
     x_edge = float(x[CENTRE[1] + 1] + 0.2 * (x[CENTRE[1] + 2] - x[CENTRE[1] + 1]))
     frame, flags = _flags(params, three, scenes.step_edge(1.0, 1.4, x_edge))
@@ -603,7 +600,7 @@ def test_every_flag_on_a_scene_built_to_trigger_it(params, one_ray):
     assert columns.tolist() == [CENTRE[1] + 1] and np.all(flags[:, columns[0]] == FLAG_MIXED)
     assert np.all(np.delete(flags, columns, 1) == 0)
     # The column is the one whose returns come from both surfaces.
-    paths = np.asarray(tj.scene_returns(params, three, scenes.step_edge(1.0, 1.4, x_edge)).path_m)
+    paths = np.asarray(tj.Camera(params, three).returns(scenes.step_edge(1.0, 1.4, x_edge)).path_m)
     both = np.ptp(paths, axis=-1) > 0.5
     np.testing.assert_array_equal(np.unique(np.nonzero(both)[1]), columns)
     # No return: a wall of reflectivity 0 (no light comes back), and a sphere's surroundings (no surface).
@@ -628,12 +625,11 @@ def test_every_flag_on_a_scene_built_to_trigger_it(params, one_ray):
     threshold = float(np.median(amplitude))
     picky = dataclasses.replace(one_ray, min_amplitude_lsb=jnp.asarray(threshold))
     _, flags = _flags(params, picky, scenes.wall(1.0))
-    np.testing.assert_array_equal((flags & FLAG_LOW_AMPLITUDE) != 0, np.asarray(tj.predict_frame(
-        params, picky, tj.scene_returns(params, picky, scenes.wall(1.0))).result.amplitude_mean_lsb) < threshold)
+    np.testing.assert_array_equal((flags & FLAG_LOW_AMPLITUDE) != 0, np.asarray(tj.predict(tj.Camera(params, picky), scenes.wall(1.0)).result.amplitude_mean_lsb) < threshold)
 
 
 def test_monte_carlo_low_signal_comes_from_the_expected_noise_not_two_frames(params, one_ray):
     """Two frames of a black wall agree by chance in some pixels: they are flagged all the same."""
-    returns = tj.scene_returns(params, one_ray, scenes.wall(1.0, 0.0))
-    frame = tj.render_frame(params, one_ray, returns, jax.random.key(3), 2)
+    returns = tj.Camera(params, one_ray).returns(scenes.wall(1.0, 0.0))
+    frame = tj.simulate(tj.Camera(params, one_ray), returns, jax.random.key(3), 2)
     assert np.all(np.asarray(frame.flags) & FLAG_LOW_SIGNAL) and np.all(np.asarray(frame.flags) & FLAG_NO_RETURN)

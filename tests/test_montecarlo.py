@@ -100,8 +100,8 @@ def test_low_snr_analytic_statistics_match_the_frames():
     an = tj.predict(p, sweep)
     mc = tj.simulate(p, sweep, jax.random.key(3), 20_000)
     caveats = np.asarray(an.caveats)
-    clean = (caveats & tj.CAVEAT_NEAR_LIMIT) == 0
-    assert clean.sum() >= 5 and np.sum((caveats[clean] & tj.CAVEAT_LOW_SNR) != 0) >= 4
+    clean = (caveats & tj.schema.CAVEAT_NEAR_LIMIT) == 0
+    assert clean.sum() >= 5 and np.sum((caveats[clean] & tj.schema.CAVEAT_LOW_SNR) != 0) >= 4
     depth = np.asarray(mc.depth_std_m) / np.asarray(an.depth_std_m)
     np.testing.assert_allclose(depth[clean], 1.0, atol=0.02)  # MC standard error 0.5 %
     amp = np.asarray(mc.amplitude_mean_lsb) / np.asarray(an.amplitude_mean_lsb)
@@ -122,7 +122,7 @@ def test_sunlight_at_a_short_exposure_is_bounded_flagged_and_right():
     limit = float(p.unambiguity_range_m) / np.sqrt(12)
     assert np.all(np.asarray(an.depth_std_m) <= limit) and np.all(np.asarray(an.depth_std_m) > 0.9 * limit)
     np.testing.assert_allclose(np.asarray(mc.depth_std_m) / np.asarray(an.depth_std_m), 1.0, atol=0.03)
-    assert np.all(np.asarray(an.caveats) & tj.CAVEAT_LOW_SNR)
+    assert np.all(np.asarray(an.caveats) & tj.schema.CAVEAT_LOW_SNR)
     assert any("low SNR" in line for line in an.caveat_summary())
 
 

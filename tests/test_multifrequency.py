@@ -18,17 +18,14 @@ def _ideal(shape="pulse", duty=0.5, n=4, noise=False):
 
 
 def test_dual_frequency_extends_the_range():
-    assert tj.extended_range_m([80.32e6, 60.24e6]) == pytest.approx(7.465, abs=1e-3)
+    assert tj.stats.extended_range_m([80.32e6, 60.24e6]) == pytest.approx(7.465, abs=1e-3)
     d = np.linspace(0.01, 7.4, 300)
     dim = tj.Params(**{**_ideal("sine", 1.0).__dict__, "illumination": tj.Illumination(peak_power_w=1e-3)})
-    noise_free = tj.simulate_multifrequency(dim, tj.Sweep("distance", d), jax.random.key(0), 2, [80.32e6, 60.24e6],
-                                            keep_frames=2)
+    noise_free = tj.simulate(tj.Camera(dim, frequencies_hz=[80.32e6, 60.24e6]), tj.Sweep("distance", d), jax.random.key(0), 2, keep_frames=2)
     assert np.all(noise_free.valid)
     np.testing.assert_allclose(np.asarray(noise_free.depth_m)[:, 0], d, atol=1e-9)
     assert not np.any(noise_free.wrong_unwrap)
-    noisy = tj.simulate_multifrequency(tj.Params(scene=tj.Scene(illuminance_lx=0.0)),
-                                       tj.Sweep.linspace("distance", 0.5, 7.4, 12), jax.random.key(1), 1500,
-                                       [80.32e6, 60.24e6], keep_frames=20)
+    noisy = tj.simulate(tj.Camera(tj.Params(scene=tj.Scene(illuminance_lx=0.0)), frequencies_hz=[80.32e6, 60.24e6]), tj.Sweep.linspace("distance", 0.5, 7.4, 12), jax.random.key(1), 1500, keep_frames=20)
     wrong = np.asarray(noisy.wrong_unwrap_fraction)
     assert np.all(wrong[:5] == 0.0)  # high SNR: never wrong
     assert wrong[-1] > 0.1 and wrong[-1] > wrong[len(wrong) // 2]  # rises with distance
@@ -37,16 +34,14 @@ def test_dual_frequency_extends_the_range():
     assert np.all(np.asarray(noisy.depth_std_m)[:5] < per[:, :5].min(axis=0))
     # With progress, the chunks run from the host (tofjax._executor.drive_blocks): the same result, to
     # rounding (the tap voltages' difference is computed in another program).
-    loud = tj.simulate_multifrequency(tj.Params(scene=tj.Scene(illuminance_lx=0.0)),
-                                      tj.Sweep.linspace("distance", 0.5, 7.4, 12), jax.random.key(1), 1500,
-                                      [80.32e6, 60.24e6], keep_frames=20, progress=True)
+    loud = tj.simulate(tj.Camera(tj.Params(scene=tj.Scene(illuminance_lx=0.0)), frequencies_hz=[80.32e6, 60.24e6]), tj.Sweep.linspace("distance", 0.5, 7.4, 12), jax.random.key(1), 1500, keep_frames=20, progress=True)
     for a, b in zip(jax.tree_util.tree_leaves(noisy), jax.tree_util.tree_leaves(loud), strict=True):
         np.testing.assert_allclose(np.asarray(b), np.asarray(a), rtol=1e-13, atol=1e-15)
     fig = plots.multifrequency_distance(noisy)
     assert fig.axes[0].lines[0].get_xdata().size == 12 * 20  # the kept frames
     assert isinstance(fig, Figure)
     with pytest.raises(ValueError, match="two or more distinct frequencies"):
-        tj.simulate_multifrequency(tj.Params(), tj.Sweep("distance", [1.0]), jax.random.key(0), 2, [80e6])
+        tj.simulate(tj.Camera(tj.Params(), frequencies_hz=[80e6]), tj.Sweep("distance", [1.0]), jax.random.key(0), 2)
 
 
 def test_multifrequency_from_the_configuration(tmp_path, capsys):

@@ -29,7 +29,7 @@ def _eq_3_11_electrons(p, d, t, rectangular=False):
     gain = (float(p.scene.reflectivity) * float(cam.fill_factor) * float(cam.pixel_pitch_m[0] * cam.pixel_pitch_m[1])
             * float(cam.k_lens) / (4 * float(cam.f_number) ** 2))
     flux = float(p.illumination.peak_power_w) / spot * gain
-    mean = float(tofjax.waveform_mean(p.illumination_waveform))
+    mean = float(tofjax.waveforms.waveform_mean(p.illumination_waveform))
     return float(p.pixel.photo_responsivity_a_per_w) * flux * mean * t / C.ELEMENTARY_CHARGE_C, gain
 
 
@@ -52,7 +52,7 @@ def test_the_exposure_is_eq_3_11_on_the_axis(default_params, rectangular):
     np.testing.assert_allclose(q.signal_e, expected, rtol=1e-12)
     np.testing.assert_allclose(_exposure(p, d, t=4e-3).signal_e, 2 * expected, rtol=1e-12)
     lit = _exposure(p, d, lux=500.0)
-    irradiance = tofjax.background_photon_irradiance("sunlight", 500.0, p.illumination.wavelength_m,
+    irradiance = tofjax.optics.background_photon_irradiance("sunlight", 500.0, p.illumination.wavelength_m,
                                                      p.scene.filter_half_width_m, p.constants)
     eta = quantum_efficiency(p.pixel, p.illumination.wavelength_m, p.constants)
     np.testing.assert_allclose(lit.background_e, float(irradiance) * gain * 2e-3 * float(eta), rtol=1e-12)
@@ -61,20 +61,20 @@ def test_the_exposure_is_eq_3_11_on_the_axis(default_params, rectangular):
         fov = math.radians(75.0)
         flux = (1.2 * 0.9 * 0.9 * 1.0 / 1.4**2) * (17.5e-6 * 17.5e-6) / (4 * math.pi * (math.tan(fov / 2) * 1.7) ** 2)
         assert float(q.signal_e[2]) == pytest.approx(
-            0.23 * flux * float(tofjax.waveform_mean(p.illumination_waveform)) * 2e-3 / C.ELEMENTARY_CHARGE_C, rel=1e-12)
+            0.23 * flux * float(tofjax.waveforms.waveform_mean(p.illumination_waveform)) * 2e-3 / C.ELEMENTARY_CHARGE_C, rel=1e-12)
 
 
 def test_rectangular_spot_area():
     ill = tofjax.Illumination(fov_deg=[60.0, 40.0])
     expected = (2 * 2.0 * math.tan(math.radians(30))) * (2 * 2.0 * math.tan(math.radians(20)))
-    assert float(tofjax.spot_area_m2(ill, 2.0)) == pytest.approx(expected, rel=1e-12)
+    assert float(tofjax.optics.spot_area_m2(ill, 2.0)) == pytest.approx(expected, rel=1e-12)
     circ = tofjax.Illumination(fov_deg=75.0)
-    assert float(tofjax.spot_area_m2(circ, 2.0)) == pytest.approx(math.pi * (2 * math.tan(math.radians(37.5))) ** 2)
+    assert float(tofjax.optics.spot_area_m2(circ, 2.0)) == pytest.approx(math.pi * (2 * math.tan(math.radians(37.5))) ** 2)
 
 
 def test_lens_from_diagonal_fov_and_f_number():
     cam = tofjax.Optics()
-    lens = tofjax.lens(cam)
+    lens = tofjax.optics.lens(cam)
     diag = math.hypot(224 * 17.5e-6, 172 * 17.5e-6)
     assert float(lens.focal_length_m) == pytest.approx(diag / 2 / math.tan(math.radians(37.5)), rel=1e-12)
     assert float(lens.diameter_m) == pytest.approx(float(lens.focal_length_m) / 1.4, rel=1e-12)
@@ -82,7 +82,7 @@ def test_lens_from_diagonal_fov_and_f_number():
     th = math.tan(math.radians(37.5))
     h = 2 * math.degrees(math.atan(th * 0.8))
     v = 2 * math.degrees(math.atan(th * 0.6))
-    rect = tofjax.lens(tofjax.Optics(fov_deg=[h, v]))
+    rect = tofjax.optics.lens(tofjax.Optics(fov_deg=[h, v]))
     assert float(rect.focal_length_m) == pytest.approx(float(lens.focal_length_m), rel=1e-12)
 
 

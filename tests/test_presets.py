@@ -11,7 +11,8 @@ import pytest
 import fitting
 import tofjax as tj
 from tofjax import sweepfile
-from tofjax import PRESETS, preset_config, preset_text
+from tofjax import PRESETS, preset_config
+from tofjax.schema import preset_text
 from tofjax._presets import UNKNOWN
 from tofjax._schema import KEY_BY_DOTTED
 

@@ -82,3 +82,26 @@ def test_the_sweep_axes_are_one_table_that_agrees_with_the_schema():
             assert KEY_BY_DOTTED[f"scene.{bound}"].unit == axis.unit
         assert axis.axis_label.endswith(f"[{axis.display_unit}]")
     assert SWEEP_AXES["integration_time"].display_scale == 1e3 and SWEEP_AXES["integration_time"].display_unit == "ms"
+
+
+def test_the_public_surface_is_the_documented_short_list():
+    """tj.__all__ is at most 35 names, each documented in docs/api.md (the first column of its tables
+    before "Public submodules", no more, no fewer), each with a docstring of its own; every public
+    submodule named there imports."""
+    import importlib
+    import re
+
+    import tofjax as tj
+
+    text = (ROOT / "docs" / "api.md").read_text()
+    names_part, modules_part = text.split("## Public submodules")
+    documented = set(re.findall(r"^\| `(\w+)` \|", names_part, re.M))
+    assert len(tj.__all__) <= 35
+    assert documented == set(tj.__all__), (documented ^ set(tj.__all__))
+    for name in tj.__all__:
+        value = getattr(tj, name)
+        if name not in ("PRESETS", "__version__"):  # data, documented in docs/api.md and their modules
+            assert (value.__doc__ or "").strip() and value.__doc__ != type(value).__doc__, name
+    for module in re.findall(r"^\| `tofjax\.(\w+)`", modules_part, re.M):
+        assert module in tj._SUBMODULES and importlib.import_module(f"tofjax.{module}").__doc__, module
+    assert set(re.findall(r"`tofjax\.(\w+)`", modules_part)) == set(tj._SUBMODULES)

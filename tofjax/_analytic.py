@@ -1,5 +1,5 @@
 """The analytic path: :func:`predict` folds means and variances through the chain's stages in order
-(:meth:`tofjax.Chain.moments`), in closed form per operating point (docs/model.md, "Analytic path").
+(:meth:`tofjax.chain.Chain.moments`), in closed form per operating point (docs/model.md, "Analytic path").
 
 Per phase image: the noise sources before the limit give each tap's variance; the limit passes
 them to the held differential with its closed-form slopes; the sources after the limit add theirs;
@@ -52,7 +52,7 @@ def _nan_unless(ok: Array, x: Array) -> Array:
 
 
 def moments(chain: Chain, sweep: Sweep, charges: TapCharges | None = None) -> Moments:
-    """The moments through the chain's stages (:meth:`tofjax.Chain.moments`); ``charges``: the
+    """The moments through the chain's stages (:meth:`tofjax.chain.Chain.moments`); ``charges``: the
     exposure's, if computed."""
     if charges is None:
         d, ev, t = sweep.operating_points(chain.params.scene)

@@ -12,11 +12,15 @@ A scene is a :class:`tofjax.Sweep` (operating points of the centre pixel: the pi
 axis, one return each), a :class:`tofjax.Returns` (every pixel of a frame and its returns), a
 :class:`tofjax.scenes.SceneGeometry` (ray-cast into returns) or a depth map (an array of the frame's
 shape, Z depth in metres). A camera with several frequencies fuses them (sweeps; frames take one).
-What is prepared once (a static scene exposed on the camera) is :meth:`Camera.expose`.
 
-Transitional: the earlier functions (``tj.predict(params, sweep)``, ``tj.simulate(params, sweep,
-key, iterations)``, ``predict_frame``, ``render_frame``, ``predict_multifrequency``, ...) still work
-and compute the same numbers; these verbs route to them, and the callers move here step by step.
+What is prepared once is one explicit step: :meth:`Camera.expose` (a static scene exposed on the
+camera: its ``predict``, ``render``, ``sample`` and ``noise_image`` cost only the chain after the
+exposure) or :meth:`Camera.prepare` (the camera's own constants, for a stream of changing scenes:
+its methods take the scene).
+
+A :class:`tofjax.Params` in the camera's place is the camera of those parameters with the default
+frame settings, for a sweep: ``tj.predict(params, sweep)`` is ``tj.predict(tj.Camera(params),
+sweep)``; its ``smooth``, ``pattern`` and ``fixed_pattern`` keywords are the sweep's.
 """
 
 from __future__ import annotations
@@ -36,6 +40,11 @@ from ._smooth import Smooth
 from ._sweep import Sweep
 
 
+def _frequencies(f) -> tuple[float, ...]:
+    """The frequencies as a tuple of floats (any sequence or array of concrete numbers)."""
+    return tuple(float(x) for x in np.atleast_1d(np.asarray(f, dtype=float))) if np.size(f) else ()
+
+
 class Camera(eqx.Module):
     """One camera (module docstring).
 
@@ -53,7 +62,7 @@ class Camera(eqx.Module):
 
     params: Params = eqx.field(default_factory=Params)
     settings: FrameSettings = eqx.field(default_factory=FrameSettings)
-    frequencies_hz: tuple[float, ...] = eqx.field(static=True, default=())
+    frequencies_hz: tuple[float, ...] = eqx.field(static=True, default=(), converter=_frequencies)
     fusion: str = eqx.field(static=True, default="inverse_variance")
     pattern: PixelPattern | None = None
     smooth: Smooth | None = None
@@ -86,25 +95,40 @@ class Camera(eqx.Module):
         """Whether the camera fuses several modulation frequencies."""
         return len(self.frequencies_hz) > 1
 
-    def returns(self, scene) -> Returns:
-        """A frame scene's :class:`tofjax.Returns`: as given, ray-cast from a
-        :class:`tofjax.scenes.SceneGeometry`, or a depth map's (Z depth, m; reflectivity 0.9)."""
+    def returns(self, scene, *, reflectivity=0.9, radial: bool = False, sun_direction=None, bins: int = 32) -> Returns:
+        """A frame scene's :class:`tofjax.Returns`, every pixel's returns: as given; ray-cast from a
+        :class:`tofjax.scenes.SceneGeometry` (the direct return of each sub-pixel ray and, for a
+        scene with patches, its two-bounce light in ``bins`` returns; ``sun_direction``: the
+        background light's direction); or a depth map's, ``(rows, cols)`` Z depth in metres (the
+        radial distance with ``radial=True``) with a ``reflectivity`` map or number, one ray per
+        pixel. Once per scene: the verbs call it for a scene that is not yet :class:`Returns`."""
         if isinstance(scene, Returns):
             return scene
         if isinstance(scene, SceneGeometry):
-            return scene_returns(self.params, self.settings, scene)
+            return scene_returns(self.params, self.settings, scene, sun_direction=sun_direction, bins=bins)
         if isinstance(scene, jax.Array | np.ndarray):
-            return depth_returns(self.params, self.settings, scene, 0.9)
+            return depth_returns(self.params, self.settings, scene, reflectivity, radial=radial)
         raise TypeError(f"scene must be a tofjax.Sweep, tofjax.Returns, a tofjax.scenes.SceneGeometry or a depth map "
                         f"(an array of the frame's shape), got {type(scene).__name__}")
 
-    def expose(self, scene):
-        """A frame scene exposed once on this camera (:class:`tofjax.PreparedFrame`): its ``predict``,
-        ``render`` and ``sample`` then cost only the chain after the exposure."""
-        from ._frame import prepare_frame
+    def prepare(self):
+        """The camera prepared for frames once: its frame chain, each pixel's conversion of radiance
+        to electrons, dark electrons and ray (``tofjax._frame.PreparedCamera``). Its methods take a
+        scene's :class:`tofjax.Returns` and cost only its exposure and the chain after it:
+        ``predict(returns)``, ``render(returns, key, frames, keep_frames=, raw=, progress=)``,
+        ``sample(returns, key, frames, raw=)`` (noisy frames only, :class:`tofjax.NoisyFrames`: what a
+        simulated camera streams when its scene changes every frame), ``noise_image(returns)`` (each
+        pixel's analytic distance noise only) and ``prepare(returns)`` (as :meth:`expose`)."""
+        from ._frame import prepare_camera
 
         self._one_frequency("a frame")
-        return prepare_frame(self.params, self.settings, self.returns(scene), self.pattern, smooth=self.smooth)
+        return prepare_camera(self.params, self.settings, self.pattern, smooth=self.smooth)
+
+    def expose(self, scene):
+        """A frame scene exposed once on this camera (``tofjax._frame.PreparedFrame``): its
+        ``predict()``, ``render(key, frames, keep_frames=, raw=, progress=)``, ``sample(key, frames,
+        raw=)`` and ``noise_image()`` then cost only the chain after the exposure."""
+        return self.prepare().prepare(self.returns(scene))
 
     def _no_pattern(self, what: str) -> None:
         if self.pattern is not None:
@@ -125,8 +149,15 @@ def predict(camera, scene, *, smooth: Smooth | None = None, pattern: PixelPatter
     frame's :class:`tofjax.Returns`, :class:`tofjax.scenes.SceneGeometry` or depth map: a
     :class:`tofjax.FrameResult`).
 
-    Transitional: ``predict(params, sweep, smooth=..., pattern=...)`` with a :class:`tofjax.Params`
-    is the centre-pixel function it always was (:func:`tofjax._analytic.predict`).
+    ``camera`` may be a :class:`tofjax.Params` for a sweep (module docstring):
+    ``predict(params, sweep, smooth=..., pattern=...)``.
+
+    Example::
+
+        camera = tj.Camera(tj.Params())
+        r = tj.predict(camera, tj.Sweep.linspace("distance", 0.5, 5.0, 10))
+        r.depth_std_m                                  # (10,) m
+        tj.predict(camera, scenes.wall(2.0)).depth_std_m   # (rows, cols) m: a frame
     """
     from ._analytic import predict as predict_sweep
 
@@ -141,11 +172,7 @@ def predict(camera, scene, *, smooth: Smooth | None = None, pattern: PixelPatter
             return predict_multifrequency(camera.params, scene, camera.frequencies_hz, fusion=camera.fusion,
                                           smooth=camera.smooth)
         return predict_sweep(camera.params, scene, smooth=camera.smooth, pattern=camera.pattern)
-    from ._frame import prepare_camera
-
-    camera._one_frequency("a frame")
-    return prepare_camera(camera.params, camera.settings, camera.pattern, smooth=camera.smooth).predict(
-        camera.returns(scene))
+    return camera.prepare().predict(camera.returns(scene))
 
 
 def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frames: int = 0, raw: bool = False,
@@ -159,9 +186,14 @@ def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frame
     ``progress`` (report the chunks to :mod:`tofjax.progress`). Returns a :class:`tofjax.Result`,
     :class:`tofjax.MultiFrequencyResult` or :class:`tofjax.FrameResult`, as :func:`predict`.
 
-    Transitional: ``simulate(params, sweep, key, iterations, ...)`` with a :class:`tofjax.Params` is
-    the centre-pixel function it always was (:func:`tofjax._montecarlo.simulate`, with its
-    ``smooth``, ``fixed_pattern`` and ``pattern``).
+    ``camera`` may be a :class:`tofjax.Params` for a sweep (module docstring):
+    ``simulate(params, sweep, key, frames, smooth=..., fixed_pattern=..., pattern=...)``.
+
+    Example::
+
+        camera = tj.Camera(tj.Params())
+        r = tj.simulate(camera, tj.Sweep("distance", [1.0, 2.0]), jax.random.key(0), 2000)
+        r.depth_std_m                                  # (2,) m, over 2000 frames each
     """
     from ._montecarlo import simulate as simulate_sweep
 

@@ -47,7 +47,7 @@ class Config:
     @property
     def frame(self):
         """The ``[frame]`` section as :class:`tofjax.FrameSettings` (the array's optics and fixed
-        pattern, for :func:`tofjax.predict_frame` and :func:`tofjax.render_frame`)."""
+        pattern, for frames (:func:`tofjax.predict`, :func:`tofjax.simulate`))."""
         from ._framegeometry import frame_settings
 
         return frame_settings(self.values["frame"])

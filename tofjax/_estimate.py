@@ -9,7 +9,7 @@ sigma_D^2. The estimator arg(sum_j D_j e^{i theta_j}) has phase variance (2 / N)
 A is the fundamental amplitude of the differential in electrons, K N_s 4 abs(R_1 S_1) / S_0 (K the
 demodulation contrast, N_s the active electrons of one image, R_k, S_k the Fourier coefficients of
 reference and emitted waveforms; 0.5 K N_s for sine/sine); sigma_D^2 is the variance of A - B from
-every source of the noise budget (:class:`tofjax.NoiseBudget`: shot noise of every collected electron,
+every source of the noise budget (:class:`tofjax.chain.NoiseBudget`: shot noise of every collected electron,
 reset and hold kTC of both taps, ...) plus the quantisation variance, in electrons. Exact for
 sinusoidal correlation without ADC and saturation.
 

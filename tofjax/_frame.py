@@ -7,14 +7,13 @@ exposure differs from the centre pixel's: each pixel collects the returns of its
 (:mod:`tofjax._framegeometry`), the mixer sorts each return by its own delay (the phasors of several
 returns add), the fixed pattern (:mod:`tofjax._pattern`) scales, shifts and splits the charges and
 sets each pixel's full well, and from there noise, SBI, saturation, ADC and demodulation are the
-centre pixel's, per pixel: :func:`predict_frame` walks them with means and variances (the per-pixel
-noise image), :func:`render_frame` and :func:`sample_frame` with Monte Carlo frames.
+centre pixel's, per pixel: :func:`tofjax.predict` of a frame scene folds their moments (the
+per-pixel noise image), :func:`tofjax.simulate` draws Monte Carlo frames.
 
 What does not depend on the scene (the chain, each pixel's conversion of radiance to electrons, its
-dark electrons) is a :class:`PreparedCamera`, computed once by :func:`prepare_camera`; what does not
-depend on the frames' noise (a scene's charges and the frames' per-pixel constants) is a
-:class:`PreparedFrame`. The functions of ``(params, settings, returns)`` prepare the camera on every
-call.
+dark electrons) is a :class:`PreparedCamera`, computed once by :meth:`tofjax.Camera.prepare`; what
+does not depend on the frames' noise (a scene's charges and the frames' per-pixel constants) is a
+:class:`PreparedFrame` (:meth:`tofjax.Camera.expose`). The verbs prepare the camera on every call.
 """
 
 from __future__ import annotations
@@ -115,12 +114,12 @@ def _phase_noise(expected: Result) -> tuple[Array, Array]:
 
 
 class PreparedCamera(eqx.Module):
-    """A camera prepared for frames once (:func:`prepare_camera`): everything of a frame that does
+    """A camera prepared for frames once (:meth:`tofjax.Camera.prepare`): everything of a frame that does
     not depend on the scene, so that a scene's frames, noise image or analytic frame cost only its
     exposure and the chain after it. What a simulated camera streaming a changing scene needs.
 
     **Fields** (``(rows, cols)`` per pixel):
-    - ``chain``: the frame's chain (:func:`tofjax.build_chain`, each pixel's own full well);
+    - ``chain``: the frame's chain (:func:`tofjax.chain.build_chain`, each pixel's own full well);
     - ``settings``: the ``[frame]`` settings (:class:`tofjax.FrameSettings`);
     - ``pattern``: the camera sample (:class:`tofjax.PixelPattern`);
     - ``active_e_per_radiance``: active electrons per phase image and per unit of a return's
@@ -132,8 +131,8 @@ class PreparedCamera(eqx.Module):
     - ``direction``: each pixel's unit ray ``(rows, cols, 3)``.
 
     The methods take a scene's :class:`tofjax.Returns` and work under ``jit``, ``vmap`` and ``grad``
-    like the functions they share their programs with (:func:`sample_frame` is
-    ``prepare_camera(...).sample(...)``, and so on).
+    like the verbs they share their programs with (``tj.predict(camera, returns)`` is
+    ``camera.prepare().predict(returns)``, and so on).
     """
 
     chain: Chain
@@ -178,27 +177,27 @@ class PreparedCamera(eqx.Module):
                              self.pattern.tap_asymmetry, self.dark_a_e, self.dark_b_e)
 
     def sample(self, returns: Returns, key: PRNGKeyArray, frames: int = 1, *, raw: bool = False) -> NoisyFrames:
-        """``frames`` noisy frames of a scene (:func:`sample_frame`): radial distance, amplitude and
+        """``frames`` noisy frames of a scene (what a stream of changing scenes needs): radial distance, amplitude and
         validity, ``(frames, rows, cols)``, and with ``raw`` their raw phase images."""
         returns = self._check(returns)
         check_counts(frames, frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS)
         return _sample_charges(self.chain, self.expose(returns), key, frames, self.shape, raw)
 
     def noise_image(self, returns: Returns) -> Float[Array, "rows cols"]:
-        """A scene's noise image (:func:`noise_image`): each pixel's analytic standard deviation of
+        """A scene's noise image: each pixel's analytic standard deviation of
         its radial distance, m."""
         returns = self._check(returns)
         return _noise_image_prepared(self.chain, returns.radial_m, self.expose(returns))
 
     def predict(self, returns: Returns) -> FrameResult:
-        """A scene's analytic frame (:func:`predict_frame`)."""
+        """A scene's analytic frame (``tj.predict(camera, returns)``)."""
         returns = self._check(returns)
         result = _predict_prepared(self.chain, returns.radial_m, self.expose(returns))
         quality = _quality(self.chain, self.settings, returns, self.direction, *_phase_noise(result))
         return FrameResult(result, returns.radial_m, self.direction, self.pattern, quality)
 
     def prepare(self, returns: Returns) -> PreparedFrame:
-        """A scene exposed once (:func:`prepare_frame`), with its flags' expected noise and amplitude
+        """A scene exposed once (:meth:`tofjax.Camera.expose`), with its flags' expected noise and amplitude
         (the analytic frame's) and the scene's own flags."""
         returns = self._check(returns)
         exposure = self.expose(returns)
@@ -209,7 +208,7 @@ class PreparedCamera(eqx.Module):
 
     def render(self, returns: Returns, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0,
                raw: bool = False, progress: bool = False) -> FrameResult:
-        """Monte Carlo frames of a scene and their statistics (:func:`render_frame`)."""
+        """Monte Carlo frames of a scene and their statistics (``tj.simulate(camera, returns, ...)``)."""
         returns = self._check(returns)
         check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS, raw=raw)
         return self.prepare(returns).render(key, frames, keep_frames=keep_frames, raw=raw, progress=progress)
@@ -260,7 +259,7 @@ def prepare_camera(params: Params, settings: FrameSettings, pattern: PixelPatter
     """Prepare a camera for frames once (:class:`PreparedCamera`): its chain, each pixel's
     conversion of radiance to electrons and its dark electrons. Its methods then expose scenes
     (``sample``, ``noise_image``, ``predict``, ``prepare``, ``render``), each call costing only the
-    scene's exposure and the chain after it. Arguments as :func:`predict_frame`."""
+    scene's exposure and the chain after it (:meth:`tofjax.Camera.prepare`)."""
     _check_camera(params, settings, pattern)
     return _prepare_camera(params, settings, pattern, smooth, frame_shape(params))
 
@@ -380,69 +379,8 @@ def _check_camera(params, settings, pattern) -> None:
         raise TypeError(f"pattern must be a tofjax.PixelPattern or None, got {type(pattern).__name__}")
 
 
-def noise_image(params: Params, settings: FrameSettings, returns: Returns, pattern: PixelPattern | None = None, *,
-                smooth: Smooth | None = None) -> Float[Array, "rows cols"]:
-    """The per-pixel noise image of a scene: the analytic standard deviation of each pixel's radial
-    distance, m (``predict_frame(...).depth_std_m``, arguments as :func:`predict_frame`), computing
-    nothing else. Several scenes on one camera: :func:`prepare_camera` once, then its
-    ``noise_image``; of a scene exposed once, :meth:`PreparedFrame.noise_image` skips the exposure."""
-    return prepare_camera(params, settings, pattern, smooth=smooth).noise_image(returns)
-
-
-def predict_frame(params: Params, settings: FrameSettings, returns: Returns, pattern: PixelPattern | None = None, *,
-                  smooth: Smooth | None = None) -> FrameResult:
-    """The analytic frame: every pixel's expected depth, amplitude and intensity and the standard
-    deviations propagated through the chain (:func:`tofjax.predict` per pixel): the noise image.
-
-    **Arguments:** ``params`` (the camera; ``scene.illuminance_lx`` and ``scene.integration_time_s``
-    set the operating point, the returns the geometry), ``settings`` (:class:`FrameSettings`),
-    ``returns`` (:func:`scene_returns`, :func:`depth_returns` or :func:`tofjax.load_returns`),
-    ``pattern`` (:func:`tofjax.draw_pattern`; ``None``: every pixel the mean pixel), ``smooth``.
-    The same camera on several scenes: :func:`prepare_camera` once, then its ``predict``.
-    """
-    return prepare_camera(params, settings, pattern, smooth=smooth).predict(returns)
-
-
-def prepare_frame(params: Params, settings: FrameSettings, returns: Returns, pattern: PixelPattern | None = None, *,
-                  smooth: Smooth | None = None) -> PreparedFrame:
-    """Expose a scene once (arguments as :func:`predict_frame`): the :class:`PreparedFrame` renders
-    frames and the noise image of that scene and operating point without exposing it again."""
-    return prepare_camera(params, settings, pattern, smooth=smooth).prepare(returns)
-
-
-def render_frame(params: Params, settings: FrameSettings, returns: Returns, key: PRNGKeyArray, frames: int = 1, *,
-                 keep_frames: int = 0, raw: bool = False, pattern: PixelPattern | None = None,
-                 smooth: Smooth | None = None, progress: bool = False) -> FrameResult:
-    """Monte Carlo frames of a scene: ``frames`` noisy frames of every pixel through the chain
-    (:func:`tofjax.simulate` per pixel, the same random-number streams and chunking); the result
-    holds their per-pixel statistics (mean and standard deviation of the distance, amplitude,
-    valid fraction) and the first ``keep_frames`` frames whole (``FrameResult.frames_radial_m``).
-
-    Arguments as :func:`predict_frame`, plus ``key`` (a ``jax.random`` key; the same key gives the
-    same frames), ``frames`` and ``keep_frames`` (static), ``raw`` (static: the kept frames carry
-    their raw phase images' taps too, ``result.frames_tap_a_e``/``frames_tap_b_e`` beside
-    ``result.codes``; docs/model.md "Raw phase images") and ``progress``. Rendering the same
-    scene again (another key, more frames): :func:`prepare_frame` once, then its ``render``.
-    """
-    return prepare_camera(params, settings, pattern, smooth=smooth).render(
-        returns, key, frames, keep_frames=keep_frames, raw=raw, progress=progress)
-
-
-def sample_frame(params: Params, settings: FrameSettings, returns: Returns, key: PRNGKeyArray, frames: int = 1, *,
-                 pattern: PixelPattern | None = None, smooth: Smooth | None = None, raw: bool = False) -> NoisyFrames:
-    """Only noisy frames of a scene, exposed in the same call: ``frames`` frames' radial distance,
-    amplitude and validity, ``(frames, rows, cols)`` (:class:`NoisyFrames`), without the per-pixel
-    statistics of :func:`render_frame`. What a simulated camera streams when its scene changes every
-    frame (:func:`prepare_camera` once and its ``sample`` skip the camera's own constants; for a
-    static scene, :func:`prepare_frame` once and its ``sample`` skip the exposure too). Arguments as
-    :func:`render_frame`; the frames are those ``prepare_frame(...).sample(key, frames)`` returns (and
-    :func:`render_frame` keeps) for the same key. ``raw`` (static): the frames' raw phase images too
-    (:class:`NoisyFrames`; the same frames with or without them)."""
-    return prepare_camera(params, settings, pattern, smooth=smooth).sample(returns, key, frames, raw=raw)
-
-
 class PreparedFrame(eqx.Module):
-    """A scene exposed once on a camera (:func:`prepare_frame`): the frame's chain, every pixel's
+    """A scene exposed once on a camera (:meth:`tofjax.Camera.expose`): the frame's chain, every pixel's
     expected charges and its Monte Carlo per-pixel constants, so that frames (:meth:`render`) and
     the noise image (:meth:`predict`) of the same scene and operating point cost only the chain
     after the exposure. What a live view or a stream of training frames of a static scene needs."""
@@ -461,14 +399,14 @@ class PreparedFrame(eqx.Module):
 
     def render(self, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0, raw: bool = False,
                progress: bool = False) -> FrameResult:
-        """``frames`` Monte Carlo frames (:func:`render_frame`, which is ``prepare_frame(...).render(...)``)."""
+        """``frames`` Monte Carlo frames (``tj.simulate(camera, scene, ...)`` is ``camera.expose(scene).render(...)``)."""
         check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS, raw=raw)
         return self._wrap(execute(_render_setup, _render_consts, _render_finish, (self, key, raw, frames),
                                   points=math.prod(self.shape), frames=frames, keep=keep_frames,
                                   phases=self.chain.n_phases, elements=FRAME_CHUNK_ELEMENTS, progress=progress))
 
     def predict(self) -> FrameResult:
-        """The analytic frame, the noise image (:func:`predict_frame`)."""
+        """The analytic frame, the noise image (``tj.predict(camera, scene)``)."""
         return self._wrap(_predict_prepared(self.chain, self.sweep, self.prepared.charges))
 
     def noise_image(self) -> Float[Array, "rows cols"]:
@@ -556,7 +494,7 @@ def _predict_prepared(chain, sweep, exposed) -> Result:
 @_jit.jit
 def _expected(chain, sweep, charges) -> tuple[Array, Array]:
     """A scene's expected phase noise and amplitude, for its flags: of the analytic frame only these,
-    in a program of their own (the whole analytic frame cost render_frame(frames=1) a third of its
+    in a program of their own (the whole analytic frame cost a one-frame render a third of its
     time; with the scene's flags in the same program XLA evaluated the chain twice)."""
     return _phase_noise(analytic(chain, sweep, moments(chain, sweep, charges)))
 

@@ -93,7 +93,7 @@ def _limit(chain: Chain, full_well_e: Array | None, frames: bool, frames_first: 
 
 def point_constants(chain: Chain, charges: TapCharges, index: Array, full_well_e: Array | None = None) -> PointConstants:
     """Per-point constants of the frames from the expected charges (flattened points), the moments
-    through the stages the draw covers (:meth:`tofjax.Chain.drawn_moments`); ``full_well_e``
+    through the stages the draw covers (:meth:`tofjax.chain.Chain.drawn_moments`); ``full_well_e``
     ``(points,)``: each point's own full well (default: the chain's)."""
     chain = _limit(chain, full_well_e, frames=False)
     m = chain.drawn_moments(charges)

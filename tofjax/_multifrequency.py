@@ -18,7 +18,7 @@ weights of the camera's *fusion* (``illumination_waveform.frequency_fusion``, do
 - ``highest_frequency``: only the highest frequency's distance; the others only choose its wrap.
 
 The fused distance's noise, for the correct unwrap, is sigma^2 = sum w_i^2 sigma_i^2 / (sum w_i)^2
-(:func:`fused_std`); :func:`predict_multifrequency` gives it analytically.
+(:func:`fused_std`); :func:`tofjax.predict` of a multi-frequency camera gives it analytically.
 
 Under noise the wrong candidate can win: a *wrong unwrap*, an error of a sizeable fraction of the
 extended range (the effect behind Fig 5.9). A simulated frame counts as wrongly unwrapped when its
@@ -73,7 +73,7 @@ class MultiFrequencyResult(eqx.Module):
       ``valid``, ``wrong_unwrap``: per kept frame (``None`` without ``keep_frames``).
     - ``depth_mean_m``, ``depth_std_m``: circular statistics (period: the extended range) over the
       valid, correctly unwrapped frames; ``wrong_unwrap_fraction`` over the valid frames. From
-      :func:`predict_multifrequency`: the fused expected distance and its noise (analytic), the
+      :func:`tofjax.predict`: the fused expected distance and its noise (analytic), the
       wrong-unwrap fraction NaN (not modelled analytically).
     - ``fusion``: the weighting of the frequencies' distances (module docstring).
     """

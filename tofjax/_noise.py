@@ -10,7 +10,7 @@ Every source is one small class that states
   are independent Gaussians, so the Monte Carlo draws their sum once per tap and node.
 
 The chain places the sources of each node as one :class:`Noise` stage, before and after the limit
-(:func:`tofjax.build_chain`): a source acts where its stage stands in the chain's tuple. The
+(:func:`tofjax.chain.build_chain`): a source acts where its stage stands in the chain's tuple. The
 :class:`NoiseBudget` is every source, for the noise breakdown (:class:`tofjax.NoiseBreakdown`) and
 the closed-form estimates, so a new source is one class here, added to :data:`NOISE_SOURCES`
 (docs/model.md, "Adding a noise source").

@@ -1,7 +1,7 @@
 """The camera equation, written once (thesis §3.1, Eqs 3.1-3.18; docs/model.md, "One photometry"):
 the electrons a pixel collects in one phase image from the illumination, per unit of a return's
 radiance per watt of peak power, and from the background light, per unit reflectivity of what it
-sees, through the pixel's etendue (:func:`tofjax.pixel_etendue_m2_sr`).
+sees, through the pixel's etendue (:func:`tofjax.optics.pixel_etendue_m2_sr`).
 
 The centre pixel's sweeps (:func:`tofjax._mixer.expose`: the pixel on the optical axis looking at a
 wall) and the frames (:mod:`tofjax._frame`: every pixel, its returns) both expose through these.

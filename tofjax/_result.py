@@ -31,7 +31,7 @@ class NoiseBreakdown(eqx.Module):
 
     - ``signal_e``, ``background_e``, ``dark_e``: photo-electrons from the illumination and from the
       background light, and dark electrons.
-    - ``sources``: source name -> rms electrons (:data:`tofjax.NOISE_SOURCES`: ``reset``, ``hold``,
+    - ``sources``: source name -> rms electrons (:data:`tofjax.chain.NOISE_SOURCES`: ``reset``, ``hold``,
       ``photon_shot``, ``dark_shot``; also as attributes ``reset_e``, ...).
     - ``read_e``: the read-noise sources (reset, hold and dark shot noise, §5.5.1) in quadrature.
     - ``quantization_e``: rms quantisation error (q / sqrt(12) for an ideal ADC, more with DNL)

@@ -52,7 +52,7 @@ def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int 
 
     Several modulation frequencies (``extra_modulation_frequencies_hz``) are fused as
     ``illumination_waveform.frequency_fusion`` says: frame by frame (``"mc"``) or analytically
-    (``"analytic"``: :func:`tofjax.predict_multifrequency`, noise for the correct unwrap, no
+    (``"analytic"``: :func:`tofjax.predict` of a multi-frequency camera, noise for the correct unwrap, no
     wrong-unwrap fraction). Raises ``ValueError`` for an unknown method, and for ``fixed_pattern``
     where it cannot act (:func:`fixed_pattern_problem`).
     """

@@ -3,7 +3,7 @@
 
 Coordinates are the camera's: the lens centre at the origin, +z along the optical axis, +x right and
 +y up in the scene. A pixel's ray runs from the lens centre through the pixel centre of a pinhole
-camera whose focal length is the lens' (:func:`tofjax.lens`); the principal point is the centre of
+camera whose focal length is the lens' (:func:`tofjax.optics.lens`); the principal point is the centre of
 the array, so the pixel on the optical axis exists when both pixel counts are odd. Each pixel is
 sampled by s x s rays (``frame.subpixel_samples``) at the centres of an s x s grid inside it.
 
@@ -85,7 +85,7 @@ class Rays(eqx.Module):
 
 class PixelField(eqx.Module):
     """Where each pixel centre lies in the field, what the camera equation's relative illumination
-    reads (:func:`tofjax.pixel_etendue_m2_sr`), without the rays' vectors.
+    reads (:func:`tofjax.optics.pixel_etendue_m2_sr`), without the rays' vectors.
 
     **Fields:** ``cos_field_angle`` ``(rows, cols)``: cos of the angle between the pixel's centre
     ray and the optical axis, f / sqrt(x^2 + y^2 + f^2); ``image_height`` ``(rows, cols)``: the pixel

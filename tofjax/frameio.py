@@ -1,5 +1,7 @@
-"""Writing full frames (:func:`tofjax.render_frame`, :func:`tofjax.predict_frame`): NPZ arrays, PNG
-colour maps with colour bars, a PLY point cloud and a self-contained HTML report (``tofjax render``).
+"""Full frames' files, public: writing frames (:func:`tofjax.predict` and :func:`tofjax.simulate` of a
+frame scene) as NPZ arrays, PNG colour maps with colour bars, a PLY point cloud and a self-contained
+HTML report (``tofjax render``); :func:`save_returns` and :func:`load_returns` (a scene's
+:class:`tofjax.Returns` as ``.npz``).
 """
 
 from __future__ import annotations
@@ -13,6 +15,14 @@ import numpy as np
 from ._flags import FLAG_KEYS, FLAGS
 from .outputs import save_figure, write_bytes, write_text
 from .outputs import write_npz as write_npz_file
+
+def __getattr__(name: str):
+    if name in ("save_returns", "load_returns"):  # they need JAX; this module's writers do not
+        from . import _returns
+
+        return getattr(_returns, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 #: Map name -> (title, unit, colour map) of the PNGs.
 MAPS = {

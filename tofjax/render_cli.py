@@ -166,11 +166,11 @@ def _load_npz_scene(path: str, params, settings, max_bytes: int):
     from ._framegeometry import check_depth
     from ._npz import npz_arrays
 
-    shape = tj.frame_shape(params)
+    shape = tj.optics.frame_shape(params)
     kind, _ = _npz_scene_kind(path)
     with _scene_option():
         if kind == "returns":
-            return tj.load_returns(path, shape, max_bytes=max_bytes)
+            return tj.frameio.load_returns(path, shape, max_bytes=max_bytes)
         arrays = npz_arrays(path, _DEPTH_ARRAYS, max_bytes=max_bytes)
     key = "z_m" if "z_m" in arrays else "radial_m"
     depth = arrays[key].astype(float)
@@ -180,7 +180,7 @@ def _load_npz_scene(path: str, params, settings, max_bytes: int):
     check_depth(depth, f"--scene {path}: {key}")
     if rho.shape not in ((), shape) or not np.all(np.isfinite(rho) & (rho >= 0) & (rho <= 1)):
         raise ValueError(f"--scene {path}: reflectivity must be a number or a {shape} map with 0 <= value <= 1")
-    return tj.depth_returns(params, settings, depth, rho, radial=key == "radial_m")
+    return tj.Camera(params, settings).returns(depth, reflectivity=rho, radial=key == "radial_m")
 
 
 def _check_size(name: str, geometry, settings, shape) -> int:
@@ -244,7 +244,7 @@ def run(args) -> int:
 
     config = tj.load_config(args.config) if args.config else tj.Config()
     params, settings = config.params, config.frame
-    rows, cols = tj.frame_shape(params)
+    rows, cols = tj.optics.frame_shape(params)
     from ._montecarlo import max_keep_frames
 
     if len(config.modulation_frequencies_hz) > 1:
@@ -272,11 +272,11 @@ def run(args) -> int:
         else:
             bounce = " and the two-bounce light" if getattr(geometry, "patches", None) is not None else ""
             stage(f"casting {settings.subpixel_samples}^2 rays per pixel of {rows} x {cols} pixels{bounce}")
-            returns = jax.block_until_ready(tj.scene_returns(params, settings, geometry, sun_direction=args.sun))
+            returns = jax.block_until_ready(tj.Camera(params, settings).returns(geometry, sun_direction=args.sun))
         pattern = tj.draw_pattern(params, settings, (rows, cols)) if args.fixed_pattern else None
         t1 = time.perf_counter()
         stage(f"{args.frames} Monte Carlo frames")
-        scene = tj.prepare_frame(params, settings, returns, pattern)  # exposed once, for the frames and the analytic image
+        scene = tj.Camera(params, settings, pattern=pattern).expose(returns)  # once, for the frames and the analytic image
         with reporting(Progress(1, f"render: {args.frames} frames", unit="chunk", enabled=not args.quiet)):
             frame = jax.device_get(scene.render(jax.random.key(args.seed), args.frames,
                                                 keep_frames=args.keep_frames, raw=args.raw, progress=True))

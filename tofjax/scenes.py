@@ -1,4 +1,4 @@
-"""Scenes for full frames (:func:`tofjax.scene_returns`): built-in geometry and its primitives.
+"""Scenes for full frames (:meth:`tofjax.Camera.returns`): built-in geometry and its primitives.
 
 Camera coordinates: the lens centre at the origin, +z along the optical axis, +x right, +y up.
 Built-in scenes (distances in m, angles in degrees): :func:`wall`, :func:`tilted_plane`,

@@ -11,7 +11,12 @@ explorer share, and the dotted-name access to parameter leaves.
   suffix), :func:`render_toml` (a full configuration as commented TOML), :func:`read_toml` (a TOML
   file read with one-line errors: file, line, column);
 - :func:`float_leaf_names` (the float keys that are traced leaves of :class:`tofjax.Params`),
-  :func:`get_leaf` and :func:`set_leaves` (by dotted name).
+  :func:`get_leaf` and :func:`set_leaves` (by dotted name);
+- :func:`default_config_text` (the defaults as commented TOML), :class:`Preset` and
+  :func:`preset_text` (a camera preset's sourced configuration; the presets: :data:`tofjax.PRESETS`);
+- the bit tables written into results and files: :data:`CAVEATS` (``Result.caveats``; the bits
+  :data:`CAVEAT_NEAR_LIMIT`, :data:`CAVEAT_COARSE_QUANTIZATION`, :data:`CAVEAT_LOW_SNR`) and
+  :data:`FLAGS` (``FrameResult.flags``).
 """
 
 from typing import TYPE_CHECKING
@@ -21,13 +26,18 @@ from ._schema import (
     in_range, keys_of, suggest)
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
-    from ._config import read_toml, render_toml
+    from ._config import default_config_text, read_toml, render_toml
     from ._leaves import float_leaf_names, get_leaf, set_leaves
+    from ._flags import FLAGS
+    from ._presets import Preset, preset_text
+    from ._result import CAVEAT_COARSE_QUANTIZATION, CAVEAT_LOW_SNR, CAVEAT_NEAR_LIMIT, CAVEATS
 
 # The keys and their checks need no JAX; the TOML and leaf helpers import it (through the parameter
 # classes), on first use, so that `tofjax --help` and `tofjax record`'s option table stay light.
 _LAZY = {"read_toml": "._config", "render_toml": "._config", "float_leaf_names": "._leaves", "get_leaf": "._leaves",
-         "set_leaves": "._leaves"}
+         "set_leaves": "._leaves", "default_config_text": "._config", "Preset": "._presets", "preset_text": "._presets",
+         "CAVEATS": "._result", "CAVEAT_NEAR_LIMIT": "._result", "CAVEAT_COARSE_QUANTIZATION": "._result",
+         "CAVEAT_LOW_SNR": "._result", "FLAGS": "._flags"}
 
 
 def __getattr__(name: str):
@@ -40,4 +50,6 @@ def __getattr__(name: str):
 
 __all__ = ["KEYS", "KEY_BY_DOTTED", "OPERATING_POINT_COLUMNS", "SECTIONS", "SWEEPS", "SWEEP_AXES", "SweepAxis",
            "ConfigError", "Key", "coerce", "float_leaf_names",
-           "get_leaf", "in_range", "keys_of", "read_toml", "render_toml", "set_leaves", "suggest"]
+           "get_leaf", "in_range", "keys_of", "read_toml", "render_toml", "set_leaves", "suggest",
+           "default_config_text", "Preset", "preset_text", "CAVEATS", "CAVEAT_NEAR_LIMIT", "CAVEAT_COARSE_QUANTIZATION",
+           "CAVEAT_LOW_SNR", "FLAGS"]

@@ -472,7 +472,7 @@ def write_sweep(path: str | os.PathLike, metadata: Mapping[str, object], columns
 
 
 #: Columns a simulation writes beyond the required ones (the noise breakdown and flags): these, then
-#: ``noise_<source>_e`` for every source of the noise budget (:data:`tofjax.NOISE_SOURCES`: reset, hold,
+#: ``noise_<source>_e`` for every source of the noise budget (:data:`tofjax.chain.NOISE_SOURCES`: reset, hold,
 #: photon_shot, dark_shot, readout), then :data:`SIMULATION_TAIL_COLUMNS`.
 SIMULATION_COLUMNS = ("depth_unwrapped_mean_m", "snr_db", "intensity_e", "signal_e", "background_e", "dark_e")
 SIMULATION_TAIL_COLUMNS = (
@@ -483,7 +483,7 @@ SIMULATION_TAIL_COLUMNS = (
 
 def columns_from_result(result) -> dict[str, np.ndarray]:
     """The sweep-file columns of a :class:`tofjax.Result` (required columns first; an analytic
-    result adds ``analytic_caveats``, the bits of :data:`tofjax.CAVEATS`)."""
+    result adds ``analytic_caveats``, the bits of :data:`tofjax.schema.CAVEATS`)."""
     n = result.noise
     frames = np.full(np.shape(result.distance_m), result.n_frames, dtype=float)
     cols = {
