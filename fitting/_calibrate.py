@@ -17,6 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 import tofjax as tj
 from tofjax.outputs import save_figure, write_text
+from tofjax.report import Code, Figure, Section, Summary, Table
 from tofjax.schema import SWEEP_AXES, get_leaf, render_toml
 from tofjax.sweepfile import utc_now
 
@@ -105,10 +106,10 @@ class Calibration:
         for stem, which in (("compare_initial", 0), ("compare_calibrated", 1)):
             written += write_comparison([c[which] for c in comparisons], out, stem=stem,
                                         title=f"Measured vs model, {stem.split('_')[1]} parameters")
-        report = out / "report.md"
-        write_text(report, _report(self, [p.name for p in written if p.suffix == ".png"
-                                          and p.name.startswith(("fit_", "residuals", "corner"))], comparisons))
-        written.append(report)
+        report = _report(self, [p for p in written if p.suffix == ".png"
+                                and p.name.startswith(("fit_", "residuals", "corner"))], comparisons)
+        for name, text in (("report.md", report.markdown()), ("report.html", report.html())):
+            written.append(write_text(out / name, text))
         return written
 
     def comparisons(self) -> list[tuple[FileComparison, FileComparison]]:
@@ -393,69 +394,72 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
     return written
 
 
-def _report(cal: Calibration, figures: list[str], comparisons=()) -> str:
+def _report(cal: Calibration, figures: list[Path], comparisons=()) -> Summary:
+    """The calibration report (:class:`tofjax.report.Summary`: ``report.md`` and ``report.html``)."""
     ls, post = cal.least_squares, cal.posterior
-    lines = ["# Calibration report", "", f"tofjax {tj.__version__}, {utc_now()}", ""]
+    report = Summary("Calibration report", [f"tofjax {tj.__version__}, {utc_now()}"])
     if cal.command:
-        lines += ["Command:", "", f"    {cal.command}", ""]
-    lines += ["## Data", ""]
+        report.sections.append(Section("Command", [Code(cal.command)]))
+    data = []
     for r in cal.rows:
         used = ", ".join(f"{len(r.used(n))} {n}" for n in OBSERVABLES)
         freqs = ", ".join(f"{f / 1e6:g}" for f in r.frequencies_hz)
         fused = f" ({r.fusion} fusion)" if len(r.frequencies_hz) > 1 else ""
-        lines.append(f"- `{r.path}`: {r.sweep_variable} sweep at {freqs} MHz{fused}, {r.n_rows} rows; residuals: "
-                     f"{used}; left out: {r.excluded['saturated']} with saturated frames, {r.excluded['low_snr']} "
-                     f"below the SNR limit, {r.excluded.get('at_solution', 0)} the fitted model cannot measure")
+        data.append(f"{r.path}: {r.sweep_variable} sweep at {freqs} MHz{fused}, {r.n_rows} rows; residuals: "
+                    f"{used}; left out: {r.excluded['saturated']} with saturated frames, {r.excluded['low_snr']} "
+                    f"below the SNR limit, {r.excluded.get('at_solution', 0)} the fitted model cannot measure")
         for k, why in sorted(r.reasons.items()):
             line = int(r.lines[k]) if r.lines is not None else k + 1
-            lines.append(f"  - line {line}: {why}")
-    lines += ["", "## Least squares (Levenberg-Marquardt)", "",
-              f"{'converged' if ls.converged else 'NOT CONVERGED (the estimate below is the last iterate)'} after "
-              f"{ls.steps} steps; chi^2 = {ls.chi2:.2f} for "
-              f"{ls.dof} degrees of freedom (chi^2/dof = {ls.chi2_per_dof:.3f}); condition number "
-              f"{ls.condition_number:.3g}", "",
-              "| parameter | unit | initial | estimate | sigma |", "|---|---|---|---|---|"]
-    for n, u, i, e, s in zip(ls.names, ls.units, ls.initial, ls.estimate, ls.sigma, strict=True):
-        lines.append(f"| {n} | {u} | {i:.6g} | {e:.6g} | {s:.3g} |")
+            data.append(f"{Path(r.path).name} line {line}: {why}")
+    report.sections.append(Section("Data", [data]))
+    fit = [f"{'converged' if ls.converged else 'NOT CONVERGED (the estimate below is the last iterate)'} after "
+           f"{ls.steps} steps; chi^2 = {ls.chi2:.2f} for {ls.dof} degrees of freedom (chi^2/dof = "
+           f"{ls.chi2_per_dof:.3f}); condition number {ls.condition_number:.3g}",
+           Table(("parameter", "unit", "initial", "estimate", "sigma"), tuple(
+               (n, u, f"{i:.6g}", f"{e:.6g}", f"{sg:.3g}")
+               for n, u, i, e, sg in zip(ls.names, ls.units, ls.initial, ls.estimate, ls.sigma, strict=True)))]
     if ls.bound_flags:
-        lines += ["", "**At or near a bound:**", ""] + [f"- {b['message']}" for b in ls.bound_flags]
+        fit += ["At or near a bound:", [b["message"] for b in ls.bound_flags]]
     truths = true_values(cal)
     if truths:
-        lines += ["", "**Against the true values the files state** (simulated data):", "",
-                  "| parameter | estimate | sigma | true | (estimate - true) / sigma | verdict |", "|---|---|---|---|---|---|"]
-        lines += [f"| {t['name']} | {t['estimate']:.6g} | {t['sigma']:.3g} | {t['true']:.6g} | "
-                  f"{t['deviation_sigma']:+.2f} | {t['verdict']} |" for t in truths]
+        fit += ["Against the true values the files state (simulated data):",
+                Table(("parameter", "estimate", "sigma", "true", "(estimate - true) / sigma", "verdict"), tuple(
+                    (t["name"], f"{t['estimate']:.6g}", f"{t['sigma']:.3g}", f"{t['true']:.6g}",
+                     f"{t['deviation_sigma']:+.2f}", t["verdict"]) for t in truths))]
     if ls.degeneracies:
-        lines += ["", "**What the data cannot separate:**", ""] + [f"- {m}" for m in ls.degeneracies]
-    lines += ["", "Correlation matrix:", "", "| | " + " | ".join(n.split(".")[1] for n in ls.names) + " |",
-              "|---" * (len(ls.names) + 1) + "|"]
-    for n, row in zip(ls.names, ls.correlation, strict=True):
-        lines.append(f"| {n.split('.')[1]} | " + " | ".join(f"{x:+.3f}" for x in row) + " |")
-    lines += ["", "Residuals (whitened):", ""]
-    for s in ls.residual_summary:
-        lines.append(f"- {Path(s['file']).name} {s['observable']}: {s['rows']} rows, rms {s['rms']:.2f}, "
-                     f"mean {s['mean']:+.2f}, max |r| {s['max_abs']:.2f}")
+        fit += ["What the data cannot separate:", list(ls.degeneracies)]
+    short = [n.split(".")[1] for n in ls.names]
+    fit += ["Correlation matrix:", Table(("", *short), tuple(
+        (name, *(f"{x:+.3f}" for x in row)) for name, row in zip(short, ls.correlation, strict=True))),
+            "Residuals (whitened):",
+            [f"{Path(r['file']).name} {r['observable']}: {r['rows']} rows, rms {r['rms']:.2f}, mean {r['mean']:+.2f}, "
+             f"max |r| {r['max_abs']:.2f}" for r in ls.residual_summary]]
+    report.sections.append(Section("Least squares (Levenberg-Marquardt)", fit))
     if post is not None:
-        lines += ["", "## Posterior (emcee)", "",
-                  f"{post.walkers} walkers x {post.steps} steps, burn-in {post.burn_in}, thin {post.thin}, "
-                  f"{len(post.samples)} samples; acceptance {post.acceptance_fraction:.2f}", "",
-                  "| parameter | median | 16 % | 84 % | autocorrelation time [steps] |", "|---|---|---|---|---|"]
-        for n, m, lo, hi, t in zip(post.names, post.median, post.p16, post.p84, post.autocorr_time, strict=True):
-            lines.append(f"| {n} | {m:.6g} | {lo:.6g} | {hi:.6g} | {t:.1f} |")
-        lines += [f"- warning: {w}" for w in post.warnings]
+        report.sections.append(Section("Posterior (emcee)", [
+            f"{post.walkers} walkers x {post.steps} steps, burn-in {post.burn_in}, thin {post.thin}, "
+            f"{len(post.samples)} samples; acceptance {post.acceptance_fraction:.2f}",
+            Table(("parameter", "median", "16 %", "84 %", "autocorrelation time [steps]"), tuple(
+                (n, f"{m:.6g}", f"{lo:.6g}", f"{hi:.6g}", f"{t:.1f}")
+                for n, m, lo, hi, t in zip(post.names, post.median, post.p16, post.p84, post.autocorr_time, strict=True))),
+            *([[f"warning: {w}" for w in post.warnings]] if post.warnings else [])]))
     if comparisons:
-        lines += ["", "## Measured vs model, before and after", "",
-                  "Median model/measured ratio and rows within 30 % (unflagged rows; tables and figures in "
-                  "`compare_initial.*` and `compare_calibrated.*`):", "",
-                  "| file | observable | initial | calibrated |", "|---|---|---|---|"]
+        rows = []
         for before, after in comparisons:
             for name in ("depth_std_m", "amplitude_mean_lsb"):
                 a, b = before.summary(name), after.summary(name)
                 if a["rows"] or b["rows"]:
                     cell = lambda x: f"{x['median_ratio']:.3f} ({x['within']}/{x['rows']})" if x["rows"] else "-"  # noqa: E731
-                    lines.append(f"| {Path(before.path).name} | {name} | {cell(a)} | {cell(b)} |")
-    lines += ["", "## Figures", ""] + [f"![{f}]({f})" for f in figures]
-    lines += ["", "`calibrated.toml` is the input configuration with the least-squares estimates; use it with "
-              "`tofjax simulate --config calibrated.toml`. The input configuration is in `calibration.json` "
-              "(`configuration`).", ""]
-    return "\n".join(lines)
+                    rows.append((Path(before.path).name, name, cell(a), cell(b)))
+        report.sections.append(Section("Measured vs model, before and after", [
+            "Median model/measured ratio and rows within 30 % (unflagged rows; tables and figures in "
+            "compare_initial.* and compare_calibrated.*):",
+            Table(("file", "observable", "initial", "calibrated"), tuple(rows))]))
+    report.sections.append(Section("Figures", [Figure(f.name, f.read_bytes()) for f in figures]))
+    report.sections.append(Section("Use", [
+        "calibrated.toml is the input configuration with the least-squares estimates; use it with "
+        "tofjax simulate --config calibrated.toml. The input configuration is in calibration.json "
+        "(configuration)."]))
+    return report
+
+

@@ -23,10 +23,8 @@ summary and table), ``comparison.html`` (the same with the figures embedded) and
 
 from __future__ import annotations
 
-import base64
 import csv
 import dataclasses
-import html
 import io
 import math
 import re
@@ -35,6 +33,7 @@ from pathlib import Path
 import numpy as np
 import tofjax as tj
 from tofjax.outputs import atomic_path, write_bytes, write_text
+from tofjax.report import Figure, Section, Summary, Table
 from tofjax.schema import OPERATING_POINT_COLUMNS, SWEEP_AXES
 
 from ._data import Measurement, read_measurement
@@ -299,18 +298,18 @@ def figure(c: FileComparison, title: str = ""):
     return fig
 
 
-def _summary_lines(comparisons: list[FileComparison]) -> list[str]:
-    lines = ["| file | observable | rows | within 30 % | median model/measured | rms log ratio | flagged rows |",
-             "|---|---|---|---|---|---|---|"]
+def _summary_table(comparisons: list[FileComparison]) -> Table:
+    rows = []
     for c in comparisons:
         flagged = sum(bool(f) for f in c.flags)
         for name in ("depth_std_m", "amplitude_mean_lsb", "amplitude_std_lsb"):
             s = c.summary(name)
             if s["rows"] == 0:
                 continue
-            lines.append(f"| {_md_text(Path(c.path).name)} | {name} | {s['rows']} | {s['within']} | {s['median_ratio']:.3f} | "
-                         f"{s['rms_log_ratio']:.3f} | {flagged} |")
-    return lines
+            rows.append((Path(c.path).name, name, str(s["rows"]), str(s["within"]), f"{s['median_ratio']:.3f}",
+                         f"{s['rms_log_ratio']:.3f}", str(flagged)))
+    return Table(("file", "observable", "rows", "within 30 %", "median model/measured", "rms log ratio",
+                  "flagged rows"), tuple(rows))
 
 
 _MD_COLUMNS = (("line", "line"), ("sweep_value", "x"), ("measured_depth_error_m", "depth err meas [m]"),
@@ -344,39 +343,24 @@ def write_comparison(comparisons: list[FileComparison], out: str | Path, *, titl
         write_bytes(path, buffer.getvalue())
         pngs.append((path, buffer.getvalue()))
         written.append(path)
-    summary = _summary_lines(comparisons)
     notes = [f"Ratios are model / measured; agreement means within {100 * AGREEMENT:.0f} %; flagged rows are left out "
              "of the summary. The model is tofjax's hard analytic path of the configured camera (with each file's "
              "metadata overrides)."]
-    md = [f"# {title}", "", *map(_md_text, preamble or []), *notes, "", "## Summary", "", *summary, ""]
-    for c, rows, (png_path, _) in zip(comparisons, per_file, pngs, strict=True):
-        name = _md_text(Path(c.path).name)
-        md += [f"## {name}", "", f"![{name}]({png_path.name})",
-               "", "| " + " | ".join(h for _, h in _MD_COLUMNS) + " |", "|---" * len(_MD_COLUMNS) + "|"]
-        for r in rows:
-            md.append("| " + " | ".join(_md_text(r[k]) for k, _ in _MD_COLUMNS) + " |")
-        md.append("")
+    header = tuple(h for _, h in _MD_COLUMNS)
+    report = Summary(title, [*(preamble or []), *notes], [Section("Summary", [_summary_table(comparisons)])])
+    for c, rows, (png_path, png) in zip(comparisons, per_file, pngs, strict=True):
+        name = Path(c.path).name
+        report.sections.append(Section(name, [
+            Figure(png_path.name, png, name),
+            Table(header, tuple(tuple(r[k] for k, _ in _MD_COLUMNS) for r in rows), tuple(bool(r["flags"]) for r in rows)),
+        ]))
     md_path = out / f"{stem}.md"
-    write_text(md_path, "\n".join(md))
+    write_text(md_path, report.markdown())
     written.append(md_path)
     html_path = out / f"{stem}.html"
-    write_text(html_path, _html(title, preamble or [], notes, summary, comparisons, per_file, pngs))
+    write_text(html_path, report.html())
     written.append(html_path)
     return written
-
-
-def _md_cells(line: str) -> list[str]:
-    """The cells of a Markdown table row as plain text (escaped pipes and punctuation undone)."""
-    inner = line.strip().removeprefix("|").removesuffix("|")
-    return [html.unescape(re.sub(r"\\(.)", r"\1", cell)) for cell in re.split(r"(?<!\\)\|", inner)]
-
-
-def _md_table_html(lines: list[str]) -> str:
-    rows = [_md_cells(line) for line in lines if not line.startswith("|---")]
-    head, body = rows[0], rows[1:]
-    out = ["<table><tr>" + "".join(f"<th>{html.escape(h.strip())}</th>" for h in head) + "</tr>"]
-    out += ["<tr>" + "".join(f"<td>{html.escape(c.strip())}</td>" for c in r) + "</tr>" for r in body]
-    return "\n".join(out) + "</table>"
 
 
 #: The CSV's text columns (the rest are numbers): a spreadsheet must not run what they hold.
@@ -390,34 +374,9 @@ def _spreadsheet_safe(text: str) -> str:
     return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
 
 
-def _md_text(text: str) -> str:
-    """``text`` (a file name, a path) as literal Markdown: HTML escaped, and what could make a
-    link, an image, code, emphasis or a table cell backslash-escaped (``\\ ` * [ ] |``): shown,
-    never interpreted."""
-    return re.sub(r"([\\`*\[\]|])", r"\\\1", html.escape(str(text), quote=False))
-
-
 def _file_name_part(stem: str, limit: int = 48) -> str:
     """A part of an output file's name from an input's stem: letters, digits, ``.``, ``-`` and ``_``
     only, at most ``limit`` characters (a 240-character input name must not break the output's)."""
     return re.sub(r"[^A-Za-z0-9._-]+", "_", stem)[:limit] or "file"
 
 
-def _html(title, preamble, notes, summary, comparisons, per_file, pngs) -> str:
-    parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
-             "<style>body{font-family:sans-serif;max-width:1300px;margin:auto}table{border-collapse:collapse;"
-             "font-size:12px}td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}img{max-width:100%}"
-             "tr.flag td{color:#888}</style></head><body>", f"<h1>{html.escape(title)}</h1>"]
-    parts += [f"<p>{html.escape(p)}</p>" for p in [*preamble, *notes] if p]
-    parts += ["<h2>Summary</h2>", _md_table_html(summary)]
-    for c, rows, (_, png) in zip(comparisons, per_file, pngs, strict=True):
-        name = Path(c.path).name
-        parts += [f"<h2>{html.escape(name)}</h2>",
-                  f"<img alt='{html.escape(name)}' src='data:image/png;base64,{base64.b64encode(png).decode()}'>",
-                  "<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for _, h in _MD_COLUMNS) + "</tr>"]
-        for r in rows:
-            cls = " class='flag'" if r["flags"] else ""
-            parts.append(f"<tr{cls}>" + "".join(f"<td>{html.escape(r[k])}</td>" for k, _ in _MD_COLUMNS) + "</tr>")
-        parts.append("</table>")
-    parts.append("</body></html>")
-    return "\n".join(parts)

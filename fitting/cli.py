@@ -41,7 +41,7 @@ def register(subparsers) -> None:
         "calibrate", help="fit sensor parameters to measured sweeps (least squares, optional emcee posterior)",
         description="Fit configuration parameters to the amplitude and depth-noise rows of tofjax-sweep files by "
                     "Levenberg-Marquardt least squares, optionally followed by emcee posterior sampling. Writes "
-                    "calibrated.toml (usable by tofjax simulate), calibration.json, figures and report.md.")
+                    "calibrated.toml (usable by tofjax simulate), calibration.json, figures, report.md and report.html.")
     p.add_argument("sweeps", nargs="+", type=Path, metavar="SWEEP.csv", help="tofjax-sweep files")
     p.add_argument("--config", type=Path, help="camera configuration TOML (default: built-in defaults)")
     p.add_argument("--fit", required=True, help="comma-separated dotted names, e.g. "

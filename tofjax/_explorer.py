@@ -51,6 +51,7 @@ from ._params import PhysicalConstants
 from ._run import run_sweep, sweep_file_contents
 from ._schema import KEYS, SWEEP_AXES, ConfigError, Key, keys_of
 from .outputs import OutputDir, OutputError, check_output, save_figure, write_text
+from .report import Summary
 
 #: Sweep choices as the thesis' GUI names them (§4.3).
 SWEEP_CHOICES = tuple((axis.title, name) for name, axis in SWEEP_AXES.items())
@@ -713,7 +714,7 @@ class Explorer:
             f"Valid from: {at('valid_from_m', 'm')}; 1 % depth noise at: {at('relative_noise_1pct_at_m', 'm')}; "
             f"2 % at: {at('relative_noise_2pct_at_m', 'm')}; SBI engages at: {at('sbi_engages_at_lx', 'lx')}; "
             f"the pixel saturates at: {at('pixel_saturates_at_lx', 'lx')}")
-        return "<br>".join(html.escape(line) for line in lines)
+        return Summary("explorer", lines).html_fragment()
 
     def _path(self, path=None) -> Path | None:
         """The file the path box (or ``path``) names, inside :attr:`folder`; ``None`` with the reason

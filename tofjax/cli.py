@@ -204,28 +204,28 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _summary(result, elapsed_s: float, out: Path) -> str:
+    """What ``tofjax simulate`` prints: up to ten rows of the sweep, the run, the caveats
+    (:class:`tofjax.report.Summary` as text)."""
     import numpy as np
 
+    from .report import Section, Summary, Table
+
     axis = SWEEP_AXES[result.sweep_variable]
-    scale = axis.display_scale
     values = np.asarray(result.sweep_values)
     rows = np.unique(np.linspace(0, len(values) - 1, min(len(values), 10)).round().astype(int))
-    head = f"{axis.name + ' [' + axis.display_unit + ']':>22} {'unwrapped [m]':>15} {'depth std [mm]':>15} " \
-           f"{'rel. std [%]':>13} {'amplitude [LSB]':>16} {'valid [%]':>10}"
-    lines = [head, "-" * len(head)]
     dist = np.asarray(result.distance_m)
-    for i in rows:
-        def cell(x, fmt):
-            x = float(x)
-            return format("-", ">" + fmt.partition(".")[0]) if np.isnan(x) else format(x, fmt)
-        lines.append(
-            f"{values[i] * scale:22.4g} {cell(result.depth_unwrapped_mean_m[i], '15.4f')} "
-            f"{cell(1e3 * result.depth_std_m[i], '15.3f')} {cell(100 * result.depth_std_m[i] / dist[i], '13.3f')} "
-            f"{cell(result.amplitude_mean_lsb[i], '16.1f')} {cell(100 * result.valid_fraction[i], '10.1f')}"
-        )
+
+    def cell(x, fmt):
+        return "-" if np.isnan(float(x)) else format(float(x), fmt)
+
+    table = Table((f"{axis.name} [{axis.display_unit}]", "unwrapped [m]", "depth std [mm]", "rel. std [%]",
+                   "amplitude [LSB]", "valid [%]"), tuple(
+        (format(values[i] * axis.display_scale, ".4g"), cell(result.depth_unwrapped_mean_m[i], ".4f"),
+         cell(1e3 * result.depth_std_m[i], ".3f"), cell(100 * result.depth_std_m[i] / dist[i], ".3f"),
+         cell(result.amplitude_mean_lsb[i], ".1f"), cell(100 * result.valid_fraction[i], ".1f")) for i in rows))
     method = f"Monte Carlo, {result.n_frames} frames/sample" if result.method == "mc" else "analytic"
-    lines.append(f"{len(values)} samples ({method}); unambiguity range {float(result.unambiguity_range_m):.4f} m; "
-                 f"{elapsed_s:.2f} s; wrote {out}")
+    lines = [f"{len(values)} samples ({method}); unambiguity range {float(result.unambiguity_range_m):.4f} m; "
+             f"{elapsed_s:.2f} s; wrote {out}"]
     lines.extend(f"note: {line}" for line in result.caveat_summary())
     du = float(result.unambiguity_range_m)
     spacing = float(np.max(np.abs(np.diff(dist)))) if len(dist) > 1 else 0.0
@@ -234,7 +234,7 @@ def _summary(result, elapsed_s: float, out: Path) -> str:
                      f"unambiguity range ({du / 2:.4g} m); here it is {spacing:.4g} m, so that column can be off by "
                      f"multiples of {du:.4g} m (the CSV's depth_unwrapped_mean_m; its depth_mean_m is the wrapped value); "
                      "take more --samples")
-    return "\n".join(lines)
+    return Summary(f"tofjax simulate: {axis.name} sweep", sections=[Section("", [table, *lines])]).text()
 
 
 def _check_sweep_range(args) -> None:

@@ -6,8 +6,6 @@ HTML report (``tofjax render``); :func:`save_returns` and :func:`load_returns` (
 
 from __future__ import annotations
 
-import base64
-import html
 from pathlib import Path
 
 import numpy as np
@@ -222,20 +220,16 @@ def headlines(arrays: dict[str, np.ndarray]) -> dict[str, float]:
 
 
 def write_report(directory, arrays: dict[str, np.ndarray], pngs: list[Path], title: str, lines: list[str]) -> Path:
-    """``report.html``: the run's description ``lines``, the headline numbers and every PNG embedded."""
-    directory = Path(directory)
+    """``report.html``: the run's description ``lines``, the headline numbers and every PNG embedded
+    (:class:`tofjax.report.Summary`)."""
+    from .report import Figure, Section, Summary, Table
+
     numbers = headlines(arrays)
-    rows = "".join(f"<tr><td>{html.escape(k)}</td><td>{v:.4g}</td></tr>" for k, v in numbers.items())
-    images = "".join(
-        f'<figure><img src="data:image/png;base64,{base64.b64encode(p.read_bytes()).decode()}" '
-        f'alt="{html.escape(p.stem)}"><figcaption>{html.escape(p.name)}</figcaption></figure>' for p in pngs)
-    body = "".join(f"<p>{html.escape(line)}</p>" for line in lines)
-    page = (f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title><style>"
-            "body{font-family:sans-serif;max-width:1400px;margin:auto}figure{display:inline-block;margin:6px}"
-            "img{width:440px}td{padding:2px 10px}</style></head><body>"
-            f"<h1>{html.escape(title)}</h1>{body}<h2>Headline numbers</h2><table>{rows}</table>"
-            f"<h2>Images</h2>{images}</body></html>")
-    return write_text(directory / "report.html", page)
+    summary = Summary(title, list(lines), [
+        Section("Headline numbers", [Table(("number", "value"), tuple((k, f"{v:.4g}") for k, v in numbers.items()))]),
+        Section("Images", [Figure(p.name, p.read_bytes()) for p in pngs]),
+    ])
+    return write_text(Path(directory) / "report.html", summary.html())
 
 
 def write_frame(directory, arrays: dict[str, np.ndarray], title: str, lines: list[str]) -> dict:

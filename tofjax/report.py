@@ -1,30 +1,176 @@
-"""The simulation report (``tofjax simulate --report DIR``): PNGs of every plot that applies to the
-sweep, and one self-contained ``report.html`` (images embedded) with the configuration, headline
-figures and the run's timing.
+"""Reports, public: one :class:`Summary` of a run, rendered as text (the terminal), Markdown and a
+self-contained HTML page (images embedded) by this one module, for ``tofjax simulate --report``,
+``tofjax render``, ``tofjax compare``, ``tofjax calibrate`` and the explorer.
 
-Headline figures come from the analytic path (hard mode) on dedicated scans, so they do not depend
-on the chosen sweep's range: depth noise at the nominal point; the shortest distance with valid
-data (below it the pixel or the ADC saturates); the distances where the relative depth noise crosses
-1 % and 2 % (0.05-50 m); the background illuminance where SBI engages and where the pixel saturates
-(0-200 klx at the nominal distance); and, from the run itself, the dominant noise source in each
-region of the photon transfer curve.
+A :class:`Summary` is a title, its headline ``lines`` (what a terminal prints) and :class:`Section`
+s of blocks: a paragraph (``str``), bullets (``list[str]``), a :class:`Table`, a :class:`Figure` or
+:class:`Code`. Every text is escaped for the format it is rendered to (a file name such as
+``<b>|x|[l](u).csv`` shows as written, never as markup).
+
+The simulation report (:func:`write_report`): PNGs of every plot that applies to the sweep, and
+``report.html`` with the configuration, headline figures and the run's timing. Headline figures come
+from the analytic path (hard mode) on dedicated scans, so they do not depend on the chosen sweep's
+range: depth noise at the nominal point; the shortest distance with valid data (below it the pixel or
+the ADC saturates); the distances where the relative depth noise crosses 1 % and 2 % (0.05-50 m); the
+background illuminance where SBI engages and where the pixel saturates (0-200 klx at the nominal
+distance); and, from the run itself, the dominant noise source in each region of the photon transfer
+curve.
 """
 
 from __future__ import annotations
 
 import base64
+import dataclasses
 import html
+import re
 from pathlib import Path
+from typing import Union
 
-import jax
 import numpy as np
 
-from . import plots
-from ._estimate import cw_depth_noise, pulsed_depth_noise
-from ._analytic import predict
 from ._schema import SWEEP_AXES
-from ._sweep import Sweep
 from .outputs import write_bytes, write_text
+
+# The document model needs neither JAX nor matplotlib (``tofjax simulate`` prints its summary with
+# it); the simulation report's scans and plots import them where they run.
+
+
+@dataclasses.dataclass(frozen=True)
+class Table:
+    """A table of text cells: ``header`` and ``rows`` (tuples of strings); ``muted``: per row, shown
+    greyed (flagged rows)."""
+
+    header: tuple[str, ...]
+    rows: tuple[tuple[str, ...], ...]
+    muted: tuple[bool, ...] = ()
+
+
+@dataclasses.dataclass(frozen=True)
+class Figure:
+    """A PNG image: ``name`` (its file's name, which Markdown links), ``png`` (the bytes, which HTML
+    embeds), ``caption``."""
+
+    name: str
+    png: bytes
+    caption: str = ""
+
+
+@dataclasses.dataclass(frozen=True)
+class Code:
+    """Preformatted text (a configuration, a command)."""
+
+    text: str
+
+
+Block = Union[str, list, Table, Figure, Code]  # noqa: UP007 - a paragraph, bullets or one of the three
+
+
+@dataclasses.dataclass
+class Section:
+    """A titled list of blocks (:data:`Block`)."""
+
+    title: str
+    blocks: list = dataclasses.field(default_factory=list)
+
+
+@dataclasses.dataclass
+class Summary:
+    """What a run says (module docstring): ``title``, headline ``lines``, ``sections``."""
+
+    title: str
+    lines: list[str] = dataclasses.field(default_factory=list)
+    sections: list[Section] = dataclasses.field(default_factory=list)
+
+    def text(self) -> str:
+        """Plain text: the headline lines, then each section (tables aligned in columns)."""
+        out = list(self.lines)
+        for section in self.sections:
+            if section.title:
+                out += ["", section.title, "-" * len(section.title)]
+            for block in section.blocks:
+                out += _text_block(block)
+        return "\n".join(out)
+
+    def markdown(self) -> str:
+        """Markdown: figures linked by file name (written beside it), every text escaped."""
+        out = [f"# {markdown_text(self.title)}", ""]
+        out += [*(markdown_text(line) for line in self.lines), ""] if self.lines else []
+        for section in self.sections:
+            out += [f"## {markdown_text(section.title)}", ""]
+            for block in section.blocks:
+                out += [*_markdown_block(block), ""]
+        return "\n".join(out)
+
+    def html(self) -> str:
+        """A self-contained HTML page (images embedded as base64)."""
+        body = [f"<h1>{html.escape(self.title)}</h1>"] + [f"<p>{html.escape(line)}</p>" for line in self.lines]
+        for section in self.sections:
+            body.append(f"<h2>{html.escape(section.title)}</h2>")
+            body += [_html_block(block) for block in section.blocks]
+        return (f"<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{html.escape(self.title)}"
+                f"</title>\n<style>{_STYLE}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
+
+    def html_fragment(self) -> str:
+        """The headline lines as HTML (``<br>`` between them), for a page of someone else's (the explorer)."""
+        return "<br>".join(html.escape(line) for line in self.lines)
+
+
+_STYLE = ("body{font-family:sans-serif;max-width:1300px;margin:auto;padding:1em}table{border-collapse:collapse;"
+          "font-size:13px}th,td{border:1px solid #ccc;padding:3px 7px;text-align:left}tr.muted td{color:#888}"
+          "figure{display:inline-block;margin:6px}img{max-width:560px}pre{background:#f6f6f6;padding:8px;"
+          "font-size:12px}")
+
+
+def markdown_text(text) -> str:
+    """``text`` as literal Markdown: HTML escaped, and what could make a link, an image, code,
+    emphasis or a table cell backslash-escaped (``\\ ` * [ ] |``): shown, never interpreted."""
+    return re.sub(r"([\\`*\[\]|])", r"\\\1", html.escape(str(text), quote=False))
+
+
+def _text_block(block) -> list[str]:
+    if isinstance(block, Table):
+        rows = [block.header, *block.rows]
+        widths = [max(len(str(r[i])) for r in rows) for i in range(len(block.header))]
+        line = lambda r: "  ".join(str(c).rjust(w) for c, w in zip(r, widths, strict=True))  # noqa: E731
+        return [line(block.header), "-" * len(line(block.header)), *map(line, block.rows)]
+    if isinstance(block, Figure):
+        return [f"[figure {block.name}: {block.caption}]" if block.caption else f"[figure {block.name}]"]
+    if isinstance(block, Code):
+        return ["    " + line for line in block.text.splitlines()]
+    if isinstance(block, list):
+        return [f"- {item}" for item in block]
+    return [str(block)]
+
+
+def _markdown_block(block) -> list[str]:
+    if isinstance(block, Table):
+        row = lambda cells: "| " + " | ".join(markdown_text(c) for c in cells) + " |"  # noqa: E731
+        return [row(block.header), "|---" * len(block.header) + "|", *map(row, block.rows)]
+    if isinstance(block, Figure):
+        return [f"![{markdown_text(block.caption or block.name)}]({block.name})"]
+    if isinstance(block, Code):
+        return ["```", block.text, "```"]
+    if isinstance(block, list):
+        return [f"- {markdown_text(item)}" for item in block]
+    return [markdown_text(block)]
+
+
+def _html_block(block) -> str:
+    if isinstance(block, Table):
+        head = "<tr>" + "".join(f"<th>{html.escape(str(h))}</th>" for h in block.header) + "</tr>"
+        muted = block.muted or (False,) * len(block.rows)
+        rows = "".join(("<tr class='muted'>" if m else "<tr>") + "".join(f"<td>{html.escape(str(c))}</td>" for c in r)
+                       + "</tr>\n" for r, m in zip(block.rows, muted, strict=True))
+        return f"<table>{head}\n{rows}</table>"
+    if isinstance(block, Figure):
+        data = base64.b64encode(block.png).decode()
+        return (f'<figure><img alt="{html.escape(block.name)}" src="data:image/png;base64,{data}">'
+                f"<figcaption>{html.escape(block.caption or block.name)}</figcaption></figure>")
+    if isinstance(block, Code):
+        return f"<pre>{html.escape(block.text)}</pre>"
+    if isinstance(block, list):
+        return "<ul>" + "".join(f"<li>{html.escape(str(item))}</li>" for item in block) + "</ul>"
+    return f"<p>{html.escape(str(block))}</p>"
 
 
 def _first(x: np.ndarray, mask: np.ndarray):
@@ -33,6 +179,11 @@ def _first(x: np.ndarray, mask: np.ndarray):
 
 def headlines(params, result) -> dict:
     """The headline figures (module docstring) as a dict of plain numbers (None: not reached)."""
+    import jax
+
+    from ._analytic import predict
+    from ._sweep import Sweep
+
     scene = params.scene
     d = np.geomspace(0.05, 50.0, 600)
     lux = np.concatenate([[0.0], np.geomspace(1.0, 2e5, 500)])
@@ -87,10 +238,14 @@ def _fmt(value, unit="", scale=1.0, digits=4):
 
 def write_report(directory, config, result, elapsed_s: float, csv_path, multifrequency=None) -> Path:
     """Write the PNGs and ``report.html`` into ``directory``; returns the HTML path."""
+    from . import plots
+    from ._estimate import cw_depth_noise, pulsed_depth_noise
+    from ._sweep import Sweep
+
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     params = config.params
-    figures: list[tuple[str, str, bytes]] = []
+    figures: list[Figure] = []
     for name in plots.applicable(result.sweep_variable):
         func, _, ref = plots.PLOTS[name]
         if name == "depth_noise" and result.sweep_variable == "distance":
@@ -99,14 +254,15 @@ def write_report(directory, config, result, elapsed_s: float, csv_path, multifre
                                                        "pulsed estimate": pulsed_depth_noise(params, sweep)})
         else:
             fig = func(result)
-        figures.append((name, ref, plots.to_png(fig)))
-    figures.append(("tap_voltages", "Figs 5.2/5.15a", plots.to_png(plots.tap_voltages(result, params))))
-    figures.append(("waveforms", "Fig 4.2", plots.to_png(plots.waveforms(params))))
-    figures.append(("fov_footprint", "Fig 3.3", plots.to_png(plots.fov_footprint(params))))
+        figures.append(Figure(f"{name}.png", plots.to_png(fig), f"{name} ({ref})"))
+    figures.append(Figure("tap_voltages.png", plots.to_png(plots.tap_voltages(result, params)), "tap_voltages (Figs 5.2/5.15a)"))
+    figures.append(Figure("waveforms.png", plots.to_png(plots.waveforms(params)), "waveforms (Fig 4.2)"))
+    figures.append(Figure("fov_footprint.png", plots.to_png(plots.fov_footprint(params)), "fov_footprint (Fig 3.3)"))
     if multifrequency is not None:
-        figures.append(("multifrequency", "§2.2, Fig 5.9", plots.to_png(plots.multifrequency_distance(multifrequency))))
-    for name, _, data in figures:
-        write_bytes(directory / f"{name}.png", data)
+        figures.append(Figure("multifrequency.png", plots.to_png(plots.multifrequency_distance(multifrequency)),
+                              "multifrequency (§2.2, Fig 5.9)"))
+    for figure in figures:
+        write_bytes(directory / figure.name, figure.png)
 
     h = headlines(params, result)
     sweep_unit = SWEEP_AXES[result.sweep_variable].unit
@@ -128,24 +284,11 @@ def write_report(directory, config, result, elapsed_s: float, csv_path, multifre
         rows.append(("analytic path caveat", line))
     rows.append(("run time", f"{elapsed_s:.2f} s ({result.method}, {len(np.asarray(result.sweep_values))} samples"
                              + (f" x {result.n_frames} frames)" if result.n_frames else ")")))
-    regions = "".join(f"<li>{html.escape(r['source'])}: {r['from']:.4g} - {r['to']:.4g} {sweep_unit}</li>"
-                      for r in h["dominant_noise"])
-    table = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>" for k, v in rows)
-    images = "".join(
-        f'<figure><img alt="{name}" src="data:image/png;base64,{base64.b64encode(data).decode()}">'
-        f"<figcaption>{html.escape(name)} ({html.escape(ref)})</figcaption></figure>" for name, ref, data in figures)
-    config_html = html.escape(config.to_toml())
-    text = f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>tofjax report: {result.sweep_variable} sweep</title>
-<style>body{{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}}table{{border-collapse:collapse}}
-th,td{{border:1px solid #ccc;padding:4px 8px;text-align:left}}figure{{display:inline-block;margin:6px}}
-img{{max-width:520px}}pre{{background:#f6f6f6;padding:8px;font-size:12px}}</style></head><body>
-<h1>tofjax simulation report: {result.sweep_variable} sweep</h1>
-<p>Data: <code>{html.escape(str(csv_path))}</code></p>
-<h2>Headline figures</h2><table>{table}</table>
-<h3>Dominant noise source along the sweep (photon transfer curve)</h3><ul>{regions}</ul>
-<h2>Figures</h2>{images}
-<h2>Configuration</h2><pre>{config_html}</pre>
-</body></html>
-"""
-    return write_text(directory / "report.html", text)
+    regions = [f"{r['source']}: {r['from']:.4g} - {r['to']:.4g} {sweep_unit}" for r in h["dominant_noise"]]
+    summary = Summary(f"tofjax simulation report: {result.sweep_variable} sweep", [f"Data: {csv_path}"], [
+        Section("Headline figures", [Table(("figure", "value"), tuple(rows)),
+                                     "Dominant noise source along the sweep (photon transfer curve):", regions]),
+        Section("Figures", list(figures)),
+        Section("Configuration", [Code(config.to_toml())]),
+    ])
+    return write_text(directory / "report.html", summary.html())
