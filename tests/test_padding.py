@@ -9,7 +9,7 @@ import pytest
 from jax import monitoring
 
 import tofjax as tj
-from tofjax import _analytic
+from tofjax import _sweep
 from tofjax._sweep import pad_sweep, padded_samples
 
 # 0.4-3.4 m: past the 1.87 m unambiguity range of 80 MHz, so the unwrapping along the sweep runs.
@@ -64,7 +64,7 @@ def test_no_padding_under_a_transformation(monkeypatch):
     params = tj.Params()
     sweep = tj.Sweep("distance", [0.3, 3.0])
     padded = []
-    monkeypatch.setattr(_analytic, "pad_sweep", lambda s: padded.append(s.samples) or pad_sweep(s))
+    monkeypatch.setattr(_sweep, "pad_sweep", lambda s: padded.append(s.samples) or pad_sweep(s))
 
     def noise(power):
         return tj.predict(eqx.tree_at(lambda p: p.illumination.peak_power_w, params, power), sweep).depth_std_m

@@ -15,7 +15,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 from jaxtyping import Array
 
-from . import _depth, _jit
+from . import _depth, _executor, _jit
 from ._adc import saturated
 from ._chain import Chain, build_chain
 from ._charges import TapCharges
@@ -25,7 +25,7 @@ from ._result import CAVEAT_COARSE_QUANTIZATION, CAVEAT_LOW_SNR, CAVEAT_NEAR_LIM
 from ._pattern import PixelPattern, one_pixel
 from ._smooth import Smooth
 from ._stages import Moments
-from ._sweep import Sweep, check_inputs, pad_sweep, unpad
+from ._sweep import Sweep, check_inputs, unpad
 
 #: Standard deviations within which a limit makes the analytic statistics a caveat.
 _NEAR = 3.0
@@ -143,7 +143,7 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None, patte
     """
     check_inputs(params, sweep)
     sample = one_pixel(pattern)
-    padded = sweep if _jit.traced((params, sweep, smooth, sample)) else pad_sweep(sweep)
+    padded = _executor.padded(sweep, (params, sweep, smooth, sample))
     chain, charges = _predict_exposure(params, padded, smooth, sample)
     m = _predict_moments(chain, padded, charges)
     return unpad(_predict_result(chain, padded, m), sweep, padded)

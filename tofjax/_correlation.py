@@ -14,8 +14,8 @@ interpolant's derivative is exact at the grid points), and differentiable in the
 the coefficients. The table stores each cell's cubic in the power basis of the position u in [0, 1)
 inside the cell, c0 + u (c1 + u (c2 + u c3)) (the Hermite cubic through the cell's two grid values
 and slopes, rewritten once per call): a sample reads one row and evaluates three multiply-adds per
-phase step, instead of two rows and the four Hermite basis polynomials (a frame's 9 returns per pixel
-at 224 x 172: 3.0 -> 2.1 ms; docs/model.md, "Performance"). A call with at most :data:`SERIES_POINTS`
+phase step, instead of two rows and the four Hermite basis polynomials (docs/model.md,
+"Performance", measurement 12). A call with at most :data:`SERIES_POINTS`
 operating points sums the series directly (cheaper than building the table, and exact):
 :meth:`Correlation.__call__` picks by the static number of points.
 
@@ -83,11 +83,9 @@ class Correlation(eqx.Module):
         Up to :data:`UNROLLED_RETURNS` returns, every return's table cell and position inside it are
         found first (one pass over the returns), then the sum is written return by return, one row
         lookup each: XLA fuses the lookups and the adds into one loop that writes only the sum.
-        Measured for 9 returns per pixel, 640 x 480 (224 x 172):
-        gathering every return's row and contracting them (``einsum``) wrote a ``(*b, k, phases)``
-        array and ran a batched product of tiny matrices, 36-44 ms (an 88 MB temporary, mapped afresh
-        by every call); the lookups fused with the cells found inside the loop, 20.7 ms (2.8 ms), as
-        XLA finds them again for every phase step; found first, 11.3 ms (2.1 ms).
+        Gathering every return's row and contracting them (``einsum``) wrote a ``(*b, k, phases)``
+        temporary and ran a batched product of tiny matrices; finding the cells inside the loop made
+        XLA find them again for every phase step (docs/model.md, "Performance", measurement 13).
         """
         k = path.shape[-1]
         delay = path * periods_per_path + jnp.asarray(offset_periods)[..., None]

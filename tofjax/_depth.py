@@ -76,8 +76,8 @@ def atan2(y: Array, x: Array) -> Array:
     # r = num / den in [0, 1], reduced by pi/4 above tan(pi/8) to (r - 1) / (r + 1) = (num - den) / (num +
     # den) (both halved near the top of the range, against overflow). Each quotient has one user (the
     # select), so XLA fuses the whole function into its consumer; a quotient with several users is
-    # materialised, and its inputs recomputed in every fusion that reads it (a frame's phase and
-    # amplitude: four fusions, now two, 1.4 -> 0.9 ms for 224 x 172 pixels).
+    # materialised, and its inputs recomputed in every fusion that reads it (docs/model.md,
+    # "Performance", measurement 5).
     big = num > _TAN_PI_8 * den
     s = jnp.where(den > _HALVE_ABOVE, 0.5, 1.0)
     r = jnp.where(big, (s * num - s * den) / jnp.where(big, s * num + s * den, 1.0),

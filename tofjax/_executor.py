@@ -15,6 +15,12 @@ one compiled call per chunk and a :func:`tofjax.progress.tick` after each: progr
 callbacks, which JAX's persistent compilation cache keeps, and a Ctrl-C stops the run between
 chunks. Under a transformation of the caller's (no concrete values to loop over) the run is one
 program (:func:`run_blocks`), whose host callbacks report the chunks.
+
+Called directly or traced. Whether a call runs with concrete inputs or inside a ``jit``, ``vmap`` or
+``grad`` of the caller's is decided here alone: :func:`padded` (a sweep padded so that sweeps of
+similar length share compiled programs, only when called directly), :func:`programs` (work split
+into several compiled programs when called directly, one traced function otherwise) and the
+progress fork of :func:`execute`. The physics modules hand over both ways and never ask.
 """
 
 from __future__ import annotations
@@ -68,7 +74,7 @@ def run_blocks(step: Callable, consts, n_points: int, frames: int, keep: int, ph
     ``consts`` is a pytree whose leaves have the points axis last (``(..., points)``); ``record``
     tells ``step`` whether to return its frames (the first ``keep``) or ``None`` (later chunks).
     ``progress``: after every chunk, a host callback counts it (:func:`tofjax.progress.chunk_done`;
-    about 0.1 ms against the chunk's milliseconds).
+    cheap against a chunk).
     """
     block, chunk, n_blocks, n_chunks = _plan(n_points, frames, keep, phases, elements, block_points)
 
@@ -230,6 +236,25 @@ def execute(setup: Callable, consts: Callable, finish: Callable, args: tuple, *,
         return finish(*args, carry, sums, kept)
     return _in_one_program(setup, consts, finish, args, points, frames, keep, phases, elements, block_points,
                            progress)
+
+
+def padded(sweep, args):
+    """``sweep`` padded with copies of its last point (:func:`tofjax._sweep.pad_sweep`: sweeps of
+    similar length share the compiled programs; the caller cuts the padding from the result) when
+    called with concrete ``args``; as it is inside a transformation of the caller's, whose program is
+    compiled for its shapes once anyway."""
+    from ._sweep import pad_sweep
+
+    return sweep if _jit.traced(args) else pad_sweep(sweep)
+
+
+def programs(split: Callable, whole: Callable, args: tuple):
+    """``split(*args)`` when called with concrete ``args``: the work as several compiled programs,
+    because XLA on a CPU evaluates a producer again in every fusion that reads it when producer and
+    consumers share a program (docs/model.md, "Performance"); ``whole(*args)`` inside a
+    transformation of the caller's, where everything is one program anyway (``whole`` then writes
+    out what ``split`` hands from one program to the next, if it must)."""
+    return whole(*args) if _jit.traced(args) else split(*args)
 
 
 @_jit.jit

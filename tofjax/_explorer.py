@@ -19,18 +19,20 @@ nothing). A run goes in a background thread (the kernel stays responsive): one r
 progress per chunk of frames, cancellable between chunks. Plots and summary of a run are marked
 stale as soon as the settings differ from the run's.
 
-The logic lives here, not in a notebook, so that the tests can drive it headlessly: set widget
-values, press buttons with ``.click()`` (Calculate's button runs in the background: :meth:`wait`),
-read :attr:`config`, :attr:`preview`, :attr:`figures` and :attr:`message`.
+The explorer is a state and a view. :class:`tofjax._explorer_state.ExplorerState` holds what does not
+need widgets (the configuration being edited and its validation, the last run and whether it is
+stale, the files written in one folder after a confirmation); :class:`Explorer`, here, is the view:
+the widgets, their layout and reactions, the previews, the background thread of a run. The logic
+lives in modules, not in a notebook, so that the tests can drive it headlessly: set widget values,
+press buttons with ``.click()`` (Calculate's button runs in the background: :meth:`wait`), read
+:attr:`config`, :attr:`preview`, :attr:`figures` and :attr:`message`.
 """
 
 from __future__ import annotations
 
-import copy
 import html
 import logging
 import os
-import re
 import threading
 import warnings
 from pathlib import Path
@@ -45,13 +47,12 @@ except ImportError as err:  # pragma: no cover - exercised only without the extr
 
 from . import plots
 from . import progress as _progress
-from ._config import Config, config_from_dict, load_config
+from ._config import Config
+from ._explorer_state import ExplorerState, Message, file_stem, names_key, save_png, summary
 from ._optics import lens, spot_area_m2
 from ._params import PhysicalConstants
-from ._run import run_sweep, sweep_file_contents
 from ._schema import KEYS, SWEEP_AXES, ConfigError, Key, keys_of
-from .outputs import OutputDir, OutputError, check_output, save_figure, write_text
-from .report import Summary
+from .outputs import write_text
 
 #: Sweep choices as the thesis' GUI names them (§4.3).
 SWEEP_CHOICES = tuple((axis.title, name) for name, axis in SWEEP_AXES.items())
@@ -118,8 +119,6 @@ _PREVIEWS = {
                     "correlation_image", 0.8),
     "fov": ("Scene & Camera", plots.fov_footprint, {"illumination", "scene"}, "fov_image", 0.62),
 }
-#: The resolution of saved PNGs.
-_SAVE_DPI = 150
 
 
 def _range(key: Key) -> str:
@@ -132,15 +131,6 @@ def _range(key: Key) -> str:
     if key.kind in ("angle", "float_list"):
         return "each " + text.rsplit("each ", 1)[-1] + (", comma-separated" if key.kind == "float_list" else "")
     return text
-
-
-def _file_stem(variable: str, name: str) -> str:
-    """A saved plot's file name without its suffix: the run's sweep variable and the plot."""
-    return f"{variable}_{name}"
-
-
-def _save_png(path: Path, fig) -> None:
-    save_figure(fig, path, dpi=_SAVE_DPI)
 
 
 class _Cancelled(Exception):
@@ -280,6 +270,8 @@ class Explorer:
       only after the Overwrite button (TOML, PNG, CSV and the report folder alike).
 
     **Attributes** (for scripting and tests):
+    - ``state``: the :class:`tofjax._explorer_state.ExplorerState` this view shows; ``config``,
+      ``error``, ``run``, ``figures``, ``headlines`` and ``folder`` are its.
     - ``config``: the last valid configuration; ``error``: the current validation message or ``None``.
     - ``fields``: dotted key -> its input (every key of the schema).
     - ``sweep``, ``method``, ``seed``, ``plot_checkboxes``, ``calculate_button``, ``cancel_button``,
@@ -294,31 +286,15 @@ class Explorer:
     """
 
     def __init__(self, config: Config | str | os.PathLike | None = None, *, folder: str | os.PathLike | None = None):
-        self.folder = Path(os.getcwd() if folder is None else folder).expanduser().resolve()
-        if not self.folder.is_dir():
-            raise ValueError(f"folder = {str(self.folder)!r} is not a directory: the explorer reads and writes files "
-                             "only in an existing folder")
-        if config is None:
-            config = Config()
-        elif not isinstance(config, Config):
-            config = load_config(config)
-        self.config = config
-        self._raw = copy.deepcopy({s: dict(t) for s, t in config.values.items()})
-        self.error: str | None = None
-        self._unparsed: dict[str, str] = {}
-        self._stale: set[str] = set()
+        self.state = ExplorerState(config, folder=folder)
         self._quiet = False
-        self.run = None
-        self.figures: dict = {}
-        self.headlines: dict = {}
         self._preview: dict = {}
         self._dirty: set[str] = set()  # previews to redraw once their tab is shown (or read)
         self.busy = False
         self.stale = False
         self._cancel = threading.Event()
         self._thread: threading.Thread | None = None
-        self._pending = None  # (targets, action) that waits for the Overwrite button
-        self.fields = {k.dotted: _Field(k, self._raw[k.section][k.name], self._changed) for k in KEYS}
+        self.fields = {k.dotted: _Field(k, self.state.raw[k.section][k.name], self._changed) for k in KEYS}
 
         self.sweep = w.Dropdown(options=SWEEP_CHOICES, value="distance", description="sweep", style=_DESCRIPTION,
                                 layout=_wide())
@@ -388,6 +364,20 @@ class Explorer:
         self._sweep_changed()
         self._update_previews()
 
+    # --- the state, as attributes ---------------------------------------------------------------
+    folder = property(lambda self: self.state.folder, doc="The only folder the explorer reads and writes in.")
+    config = property(lambda self: self.state.config, doc="The last valid configuration.")
+    error = property(lambda self: self.state.error, doc="The current validation message, or ``None``.")
+    run = property(lambda self: self.state.run, doc="The last run (:class:`tofjax._run.Run`).")
+    figures = property(lambda self: self.state.figures, doc="Plot name -> Figure of the last run.")
+    headlines = property(lambda self: self.state.headlines, doc="The last run's headline numbers.")
+
+    def _say(self, message: Message | None) -> None:
+        """Show what an action did (or why not); the Overwrite button while one waits for it."""
+        if message is not None:
+            self.message.value = _error_html(message.text) if message.error else html.escape(message.text)
+        self.overwrite_button.layout.display = None if self.state.pending is not None else "none"
+
     # --- layout -------------------------------------------------------------------------------
     def _rows(self, dotted_keys) -> list:
         return [self.fields[d].box for d in dotted_keys]
@@ -438,30 +428,16 @@ class Explorer:
     def _changed(self, field: _Field) -> None:
         if self._quiet:
             return
-        self._stale.add(field.key.section)  # sections changed since the last valid configuration
-        try:
-            self._raw[field.key.section][field.key.name] = field.value()
-            self._unparsed.pop(field.key.dotted, None)
-        except ConfigError as err:  # text that is not a value at all: remembered until fixed
-            self._unparsed[field.key.dotted] = str(err)
-        try:
-            if self._unparsed:
-                raise ConfigError(next(iter(self._unparsed.values())))
-            config = config_from_dict(self._raw)
-        except ConfigError as err:
-            self._set_error(str(err), field)
-            return
-        self.config = config
-        self._set_error(None)
-        self._update_previews(self._stale)
-        self._stale = set()
+        error = self.state.edit(field.key, field.value)
+        self._set_error(error, field)
+        if error is None:
+            self._update_previews(self.state.take_changed())
 
     def _set_error(self, text: str | None, changed: _Field | None = None) -> None:
         """Show (or clear) a validation message: beside Calculate, at the fields it names (or the one
         just changed), above the previews; Calculate is disabled while it stands."""
-        self.error = text
         for field in self.fields.values():
-            named = text is not None and (field is changed or self._names(text, field.key.dotted))
+            named = text is not None and (field is changed or names_key(text, field.key.dotted))
             field.show_error(text if named else None)
         self.message.value = "" if text is None else _error_html(text)
         note = "" if text is None else _error_html(f"invalid value: {text}. The previews show the last valid settings.")
@@ -469,11 +445,6 @@ class Explorer:
             tab_note.value = note
         self._controls()
         self._refresh_stale()
-
-    @staticmethod
-    def _names(text: str, dotted: str) -> bool:
-        """Whether ``text`` names the key ``dotted`` (whole: not ``pixel.v_reset_v_x`` or ``a.pixel...``)."""
-        return re.search(rf"(?<![\w.]){re.escape(dotted)}(?!\w)", text) is not None
 
     def _controls(self) -> None:
         """Buttons and lamp from the state: Calculate only when idle and valid; Cancel only when busy."""
@@ -485,10 +456,7 @@ class Explorer:
         self.report_button.disabled = not has_run
 
     def _refresh_stale(self) -> None:
-        run = self.run
-        self.stale = run is not None and (self.error is not None or run.config.values != self.config.values
-                                          or run.sweep.variable != self.sweep.value or run.method != self.method.value
-                                          or (run.method == "mc" and run.seed != self.seed.value))
+        self.stale = self.state.stale(self.sweep.value, self.method.value, self.seed.value)
         self.stale_note.value = _STALE if self.stale else ""
         for box in (self.summary, self.plots_box):
             (box.add_class if self.stale else box.remove_class)("tofjax-stale")
@@ -566,14 +534,9 @@ class Explorer:
         """Run the selected sweep and draw the ticked plots (the Calculate button: in a background
         thread, ``wait=False``; :meth:`wait` joins it). One run at a time: while one goes, this says
         so and returns."""
-        if self.busy:
-            self.message.value = _error_html("a run is going: wait for it or press Cancel")
-            return
-        if self.error is not None:
-            self.message.value = _error_html(f"cannot calculate: {self.error}")
-            return
-        if self.seed.value < 0:
-            self.message.value = _error_html(f"seed = {self.seed.value} is out of range: allowed integer >= 0")
+        refused = self.state.check_calculate(self.busy, self.seed.value)
+        if refused is not None:
+            self._say(refused)
             return
         config, method, seed = self.config, self.method.value, self.seed.value
         sweep = config.sweep(self.sweep.value)
@@ -610,18 +573,9 @@ class Explorer:
         logger.addFilter(quiet)
         try:
             with _progress.reporting(_RunProgress(self.progress, self._cancel)):
-                run = run_sweep(config, sweep, method, seed=seed, keep_frames=200, progress=method == "mc")
-            figures = self._draw(run, names)
-            previous = self.run
-            if self.overlay.value and previous is not None and previous.sweep.variable == sweep.variable:
-                for name, fig in figures.items():
-                    if name in self.figures:
-                        plots.overlay(fig, self.figures[name])
-            from .report import headlines
-
-            numbers = headlines(config.params, run.result)
+                run, figures, numbers = self.state.compute(config, sweep, method, seed, names, self.overlay.value)
             cells = [self._plot_cell(name, fig, sweep.variable) for name, fig in figures.items()]
-            summary = self._summary(run, numbers)
+            text = summary(run, numbers).html_fragment()
         except Exception as err:  # noqa: BLE001 - a background run must report, not vanish
             if self._cancel.is_set():
                 self._finish("cancelled: the summary and plots below are still those of the previous run")
@@ -631,10 +585,10 @@ class Explorer:
             return
         finally:
             logger.removeFilter(quiet)
-        self.run, self.figures, self.headlines = run, figures, numbers
+        self.state.accept(run, figures, numbers)
         self.plots_box.children = cells
         self.time_label.value = f"simulation time {run.elapsed_s:.2f} s"
-        self.summary.value = summary
+        self.summary.value = text
         self._finish("")
 
     def _plot_cell(self, name: str, fig, variable: str):
@@ -656,7 +610,7 @@ class Explorer:
             view.toolbar_visible, view.toolbar_position = "fade-in-fade-out", "left"
             view.layout.width = f"{round(fig.get_figwidth() * _PLOT_DPI) + 4}px"
         view.add_class("tofjax-plot")
-        stem = _file_stem(variable, name)
+        stem = file_stem(variable, name)
         save = w.Button(description="Save PNG", icon="image", tooltip=f"this plot as {stem}.png in the folder of the TOML file")
         export = w.Button(description="Export CSV", icon="table",
                           tooltip=f"this plot's curves as {stem}.csv in the folder of the TOML file")
@@ -671,92 +625,13 @@ class Explorer:
         self._controls()
         self._refresh_stale()
 
-    @staticmethod
-    def _draw(run, names) -> dict:
-        figures = {}
-        for name in names:
-            func, _, ref = plots.PLOTS[name]
-            figures[name] = func(run.result)
-            figures[name].suptitle(f"{name.replace('_', ' ')} ({ref})", fontsize=10)
-        if run.multifrequency is not None and run.sweep.variable == "distance":
-            fig = plots.multifrequency_distance(run.multifrequency)
-            if not fig.get_suptitle():
-                fig.suptitle("several modulation frequencies: unwrapped distance (§2.2)", fontsize=10)
-            figures["multifrequency_distance"] = fig
-        return figures
-
-    @staticmethod
-    def _summary(run, numbers: dict) -> str:
-        r = run.result
-        valid = np.asarray(r.valid_fraction)
-        std = np.asarray(r.depth_std_m if run.multifrequency is None else run.multifrequency.depth_std_m)
-        kind = f"Monte Carlo, {r.n_frames} frames per sample" if r.method == "mc" else "analytic"
-        noise = (f"depth noise {1e3 * np.nanmin(std):.3g}-{1e3 * np.nanmax(std):.3g} mm"
-                 if np.any(np.isfinite(std)) else "no valid sample")
-        if run.multifrequency is not None:
-            freqs = run.config.modulation_frequencies_hz
-            ranges = f"extended range {float(run.multifrequency.extended_range_m):.4g} m " \
-                     f"({len(freqs)} frequencies, {run.multifrequency.fusion} fusion; unambiguity range of the first " \
-                     f"{float(r.unambiguity_range_m):.4g} m)"
-        else:
-            ranges = f"unambiguity range {float(r.unambiguity_range_m):.4g} m"
-        lines = [f"{len(valid)} samples ({kind}); {noise}; {np.mean(valid == 1):.0%} of the samples fully valid; "
-                 f"{ranges}"]
-        n = numbers
-
-        def at(key, unit):
-            return "not reached" if n.get(key) is None else f"{n[key]:.3g} {unit}"
-
-        lines.append(
-            f"at the nominal point ({n['nominal_distance_m']:.3g} m, {n['nominal_illuminance_lx']:.3g} lx, "
-            f"{1e3 * n['nominal_integration_time_s']:.3g} ms): depth noise {1e3 * n['nominal_depth_std_m']:.3g} mm "
-            f"({100 * n['nominal_relative_depth_std']:.2g} %), amplitude {n['nominal_amplitude_lsb']:.4g} LSB. "
-            f"Valid from: {at('valid_from_m', 'm')}; 1 % depth noise at: {at('relative_noise_1pct_at_m', 'm')}; "
-            f"2 % at: {at('relative_noise_2pct_at_m', 'm')}; SBI engages at: {at('sbi_engages_at_lx', 'lx')}; "
-            f"the pixel saturates at: {at('pixel_saturates_at_lx', 'lx')}")
-        return Summary("explorer", lines).html_fragment()
-
-    def _path(self, path=None) -> Path | None:
-        """The file the path box (or ``path``) names, inside :attr:`folder`; ``None`` with the reason
-        in :attr:`message` for an empty box or a path outside the folder."""
-        if path is not None:
-            self.path.value = str(path)
-        text = self.path.value.strip()
-        if not text:
-            self.message.value = _error_html("give a file name in the path box")
-            return None
-        target = Path(text).expanduser()
-        target = (target if target.is_absolute() else self.folder / target).resolve()
-        if target != self.folder and self.folder not in target.parents:
-            self.message.value = _error_html(f"{text}: the explorer reads and writes files only in {self.folder} (its "
-                                             "folder, chosen when it started)")
-            return None
-        return target
-
     def _hide_overwrite(self) -> None:
-        self._pending = None
+        self.state.pending = None
         self.overwrite_button.layout.display = "none"
-
-    def _unless_overwriting(self, targets: list[Path], action, overwrite: bool) -> bool:
-        """Whether ``action`` may run now: yes if none of ``targets`` exists or ``overwrite`` was
-        confirmed for them; otherwise it waits for the Overwrite button, which the message names."""
-        existing = [p for p in targets if p.exists()]
-        if existing and not (overwrite and self._pending is not None and self._pending[0] == targets):
-            self._pending = (targets, action)
-            self.overwrite_button.layout.display = None
-            shown = existing[0].name + (f" and {len(existing) - 1} more" if len(existing) > 1 else "")
-            one = len(existing) == 1
-            self.message.value = _error_html(f"{shown} exist{'s' if one else ''}: press Overwrite to replace "
-                                             f"{'it' if one else 'them'}, or change the file name")
-            return False
-        self._hide_overwrite()
-        return True
 
     def _confirm(self):
         """The Overwrite button: run the action that waits for it."""
-        if self._pending is not None:
-            return self._pending[1](overwrite=True)
-        return None
+        return self.state.confirm()
 
     def _show(self, config: Config, message: str) -> None:
         """Put ``config`` into every field and make it the configuration."""
@@ -767,25 +642,25 @@ class Explorer:
                 field.set_value(config.values[section][name])
         finally:
             self._quiet = False
-        self.config = config
-        self._raw = copy.deepcopy({s: dict(t) for s, t in config.values.items()})
-        self._unparsed.clear()
-        self._stale = set()
+        self.state.replace(config)
         self._set_error(None)
         self._update_previews()
-        self.message.value = message
+        self._say(Message(message))
+
+    def _path_text(self, path) -> str:
+        """The path box's text, after putting ``path`` into it (when given)."""
+        if path is not None:
+            self.path.value = str(path)
+        return self.path.value
 
     def load(self, path: str | os.PathLike | None = None) -> None:
         """Load a TOML configuration (the Load button: from the path box, in :attr:`folder`)."""
-        path = self._path(path)
-        if path is None:
-            return
-        try:
-            config = load_config(path)
-        except ConfigError as err:
-            self.message.value = _error_html(str(err))
-            return
-        self._show(config, f"loaded {html.escape(str(path))}")
+        text = self._path_text(path)
+        config = self.state.load(text)
+        if isinstance(config, Message):
+            self._say(config)
+        else:
+            self._show(config, f"loaded {self.state.resolve(text)}")
 
     def reset(self) -> None:
         """Every field back to the built-in defaults (the Reset button); the sweep and plots too."""
@@ -797,58 +672,17 @@ class Explorer:
     def save(self, path: str | os.PathLike | None = None, overwrite: bool = False) -> None:
         """Write the configuration as commented TOML (the Save button: to the path box). An existing
         file is only replaced with ``overwrite`` (the Overwrite button, which the first Save shows)."""
-        path = self._path(path)
-        if path is None:
-            return
-        if self.error is not None:
-            self.message.value = _error_html(f"not saved: fix the invalid value first ({self.error})")
-            return
-        if not self._unless_overwriting([path], lambda overwrite: self.save(path, overwrite), overwrite):
-            return
-        try:
-            write_text(path, self.config.to_toml())
-        except (OSError, OutputError) as err:
-            self.message.value = _error_html(f"cannot write {path}: {getattr(err, 'strerror', None) or err}")
-            return
-        self.message.value = f"saved {html.escape(str(path))}"
-
-    def _folder(self) -> Path | None:
-        """The folder of the path box's file (inside :attr:`folder`): where plots and reports go."""
-        path = self._path(None)
-        return None if path is None else path.parent
-
-    def _targets(self, names, suffix: str) -> list[Path] | None:
-        folder = self._folder()
-        if folder is None:
-            return None
-        return [folder / f"{_file_stem(self.run.sweep.variable, name)}.{suffix}" for name in names]
+        self._say(self.state.save(self._path_text(path), overwrite, lambda overwrite: self.save(path, overwrite)))
 
     def _write(self, names: list[str], suffix: str, write, overwrite: bool, again) -> list[Path] | None:
-        """Write one file per plot of ``names`` with ``write(path, figure)``, asking before any existing
-        one is replaced (``again(overwrite=True)``: what the Overwrite button runs)."""
-        missing = [n for n in names if n not in self.figures]
-        if missing:
-            self.message.value = _error_html(f"no plot {missing[0]!r} in the last run: Calculate with it ticked")
-            return None
-        targets = self._targets(names, suffix)
-        if targets is None or not self._unless_overwriting(targets, again, overwrite):
-            return None
-        written = []
-        for name, path in zip(names, targets, strict=True):
-            try:
-                write(path, self.figures[name])
-            except (OSError, OutputError) as err:
-                self.message.value = _error_html(f"cannot write {path}: {getattr(err, 'strerror', None) or err}")
-                return None
-            written.append(path)
-        self.message.value = f"saved {html.escape(str(written[0]))}" if len(written) == 1 else \
-            f"saved {len(written)} figures into {html.escape(str(written[0].parent))}"
+        written, message = self.state.write_plots(self.path.value, names, suffix, write, overwrite, again)
+        self._say(message)
         return written
 
     def save_figure(self, name: str, overwrite: bool = False) -> Path | None:
         """One plot of the last run as ``<sweep>_<plot>.png`` in the TOML file's folder (its Save PNG
         button); ``None`` if it waits for Overwrite or cannot be written (:attr:`message` says)."""
-        written = self._write([name], "png", _save_png, overwrite, lambda overwrite: self.save_figure(name, overwrite))
+        written = self._write([name], "png", save_png, overwrite, lambda overwrite: self.save_figure(name, overwrite))
         return written[0] if written else None
 
     def export_csv(self, name: str, overwrite: bool = False) -> Path | None:
@@ -862,37 +696,15 @@ class Explorer:
         """The last run's plots as PNGs (``<sweep>_<plot>.png``, as their Save PNG buttons write them) in
         the TOML file's folder; returns the paths written (none while it waits for Overwrite)."""
         if self.run is None or not self.figures:
-            self.message.value = _error_html("no plots yet: Calculate first")
+            self._say(Message("no plots yet: Calculate first", True))
             return []
-        return self._write(list(self.figures), "png", _save_png, overwrite,
+        return self._write(list(self.figures), "png", save_png, overwrite,
                            lambda overwrite: self.save_figures(overwrite)) or []
 
     def write_report(self, overwrite: bool = False) -> Path | None:
         """The last run's tofjax-sweep CSV and HTML report (plots, headline numbers) in
         ``report_<sweep>/`` beside the TOML file, as ``tofjax simulate --report`` writes them (the
         folder replaced as a whole, after the Overwrite button if it exists)."""
-        if self.run is None:
-            self.message.value = _error_html("no run yet: Calculate first")
-            return None
-        from .report import write_report
-        from .sweepfile import write_sweep
-
-        run, base = self.run, self._folder()
-        if base is None:
-            return None
-        folder = base / f"report_{run.sweep.variable}"
-        if not self._unless_overwriting([folder], lambda overwrite: self.write_report(overwrite), overwrite):
-            return None
-        try:
-            check_output(folder, "report", overwrite=True, directory=True)  # never over files tofjax did not write
-            with OutputDir(folder, "the tofjax explorer", replace=True) as out:
-                metadata, columns = sweep_file_contents(run, "(the explorer)")
-                write_sweep(out.file("sweep.csv"), metadata, columns)
-                write_report(out.staging, run.config, run.result, run.elapsed_s, folder / "sweep.csv",
-                             multifrequency=run.multifrequency)
-        except (OSError, OutputError) as err:
-            self.message.value = _error_html(f"cannot write into {folder}: {getattr(err, 'strerror', None) or err}")
-            return None
-        path = folder / "report.html"
-        self.message.value = f"wrote {html.escape(str(path))} and sweep.csv"
+        path, message = self.state.write_report(self.path.value, overwrite, lambda overwrite: self.write_report(overwrite))
+        self._say(message)
         return path

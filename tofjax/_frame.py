@@ -35,7 +35,7 @@ from ._correlation import UNROLLED_RETURNS
 from ._flags import (FLAG_LOW_AMPLITUDE, FLAG_LOW_SIGNAL, FLAG_MIXED, FLAG_NO_RETURN, FLAG_OUTSIDE_ILLUMINATION,
                      FLAG_SATURATED, FLAG_WRAPPED)
 from ._framegeometry import FrameSettings, frame_shape, pixel_etendue_m2_sr
-from ._executor import FRAME_CHUNK_ELEMENTS, equal_parts, execute
+from ._executor import FRAME_CHUNK_ELEMENTS, equal_parts, execute, programs
 from ._frames import PointCharges, draw_frames
 from ._charges import Exposure, TapCharges
 from ._montecarlo import Prepared, assemble, check_counts, frames_step
@@ -157,10 +157,7 @@ class PreparedCamera(eqx.Module):
         is one of its inputs is a copy). Inside a transformation of the caller's (``jit``, ``vmap``,
         ``grad``: one program with what reads it), the modulated sum is written out by
         :func:`_materialised` instead."""
-        if _jit.traced((self, returns)):
-            modulated, signal, background = self._scene_light(returns)
-            return self._with_camera(_materialised(modulated), signal, background)
-        return self._with_camera(*_scene_light(self, returns))
+        return self._with_camera(*programs(_scene_light, _scene_light_materialised, (self, returns)))
 
     def _scene_light(self, returns: Returns) -> tuple[Array, Array, Array]:
         """What of the exposure depends on the scene: (modulated, signal, background) electrons."""
@@ -232,9 +229,8 @@ def _materialised(x: Float[Array, "*b n"]) -> Float[Array, "*b n"]:
     """``x`` (its last axis short), written to memory inside a larger program: its product with the
     identity, exact for finite values. XLA on a CPU does not fuse a dot into its consumers, and it
     removes ``lax.optimization_barrier`` before fusion. Both taps read the exposure's sum over the
-    returns; inside one program XLA otherwise evaluated its table lookups once per consumer. One
-    program's noise image of 224 x 172 pixels with 9 returns took 24 ms, 2.4 ms with the product (two
-    programs: 2.8 ms); four scenes vmapped in one call took 2.8 ms a scene with it."""
+    returns; inside one program XLA otherwise evaluated its table lookups once per consumer
+    (docs/model.md, "Performance", measurement 14)."""
     return jnp.einsum("...j,jk->...k", x, jnp.eye(x.shape[-1], dtype=x.dtype), precision=lax.Precision.HIGHEST)
 
 
@@ -443,8 +439,8 @@ class NoisyFrames(eqx.Module):
 
 
 # Programs: the camera, the exposure, and what reads it, each its own program: in one, XLA on a CPU
-# fuses a producer into each of its consumers and evaluates it several times (one frame of 224 x 172
-# in one program: 32 ms), and the exposure's sum over the returns has two (the taps; Exposure).
+# fuses a producer into each of its consumers and evaluates it several times (docs/model.md,
+# "Performance", measurement 15), and the exposure's sum over the returns has two (the taps; Exposure).
 # Under an outer jit they are traced into one program as usual.
 _prepare_camera = _jit.jit(_camera)
 _key_words = _jit.jit(key_words)
@@ -455,6 +451,12 @@ _scene_flags = _jit.jit(scene_flags)
 @_jit.jit
 def _scene_light(camera: PreparedCamera, returns: Returns) -> tuple[Array, Array, Array]:
     return camera._scene_light(returns)
+
+
+def _scene_light_materialised(camera: PreparedCamera, returns: Returns) -> tuple[Array, Array, Array]:
+    """:meth:`PreparedCamera._scene_light` inside one program, its modulated sum written out."""
+    modulated, signal, background = camera._scene_light(returns)
+    return _materialised(modulated), signal, background
 
 
 def _point_charges(chain, exposed: Exposure) -> PointCharges:
@@ -508,7 +510,7 @@ def _noise_image_prepared(chain, sweep, exposed) -> Array:
 @_jit.jit
 def _sample_prepared(chain, source, key, frames, shape, raw=False) -> NoisyFrames:
     # Frames first throughout (the frames :func:`run_blocks` keeps are points first): no transposes,
-    # which cost more than the frames themselves (8 frames of 224 x 172: 19 of 35 ms). Chunks of
+    # which cost more than the frames themselves (docs/model.md, "Performance", measurement 16). Chunks of
     # frames as in run_blocks, in a lax.map when there are several. ``source``: the pixels'
     # PointConstants, or their PointCharges, from which one chunk makes the constants as it draws
     # and several make them once.

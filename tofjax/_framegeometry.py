@@ -19,6 +19,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from . import _jit
+from ._executor import programs
 from ._params import Params, _check, _float, _static
 from ._returns import Returns, direct_returns, two_bounce_returns
 from ._scene import (PixelField, Rays, SceneGeometry, _nonzero, pixel_field, pixel_rays, resolution, surface,
@@ -100,9 +101,9 @@ def scene_returns(params: Params, settings: FrameSettings, geometry: SceneGeomet
 
     A scene of several primitives runs as two programs, the rays and what they hit, then the
     returns: its nearest hit is a chain of selects, which XLA on a CPU evaluates again in every
-    fusion that reads it when both are one program (224 x 172, a box on a floor: 40 ms as one
-    program, 17 ms as two; a single plane is faster as one, 11 ms). Inside a transformation of the
-    caller's, everything is one program anyway."""
+    fusion that reads it when both are one program; a single plane is faster as one (docs/model.md,
+    "Performance", measurement 17). Inside a transformation of the caller's, everything is one
+    program anyway (:func:`tofjax._executor.programs`)."""
     if isinstance(bins, bool) or not isinstance(bins, int) or not 1 <= bins <= 4096:
         raise ValueError(f"bins = {bins!r} is out of range: allowed integer 1 <= value <= 4096 (returns per pixel of "
                          "the two-bounce light)")
@@ -113,10 +114,15 @@ def scene_returns(params: Params, settings: FrameSettings, geometry: SceneGeomet
             raise ValueError(f"sun_direction has shape {sun.shape}: allowed three numbers (dx, dy, dz)")
         _nonzero(sun, "sun_direction")
     shape = frame_shape(params)
-    if len(geometry.primitives) > 1 and not _jit.traced((params, settings, geometry, sun)):
-        rays, surf = _rays_and_surface_jit(params, settings, geometry, sun, shape)
-        return _returns_of_jit(params, settings, geometry, surf, rays, bins)
+    if len(geometry.primitives) > 1:
+        return programs(_scene_returns_in_two, _scene_returns, (params, settings, geometry, sun, bins, shape))
     return _scene_returns(params, settings, geometry, sun, bins, shape)
+
+
+def _scene_returns_in_two(params, settings, geometry, sun, bins, shape):
+    """:func:`_scene_returns` as two programs: the rays and what they hit, then the returns."""
+    rays, surf = _rays_and_surface_jit(params, settings, geometry, sun, shape)
+    return _returns_of_jit(params, settings, geometry, surf, rays, bins)
 
 
 def depth_returns(params: Params, settings: FrameSettings, depth_m, reflectivity, *, radial: bool = False) -> Returns:

@@ -65,7 +65,7 @@ class PointCharges(eqx.Module):
     """The points' expected charges, from which :func:`draw_frames` makes the :class:`PointConstants`
     inside the branch that draws (one chunk of a camera frame's frames): XLA then fuses them into
     the frame's own loop instead of writing eight ``(phases, points)`` arrays first and reading them
-    back (one frame of 640 x 480: 31 ms as constants then frames, 14 ms so; 224 x 172: 3.2 and 2.2 ms).
+    back (docs/model.md, "Performance", measurement 1).
 
     **Fields:** ``exposed``: what makes the points' :class:`~tofjax._charges.TapCharges` with its
     ``charges()``, flattened ``(points, ...)``: the charges themselves, or a frame's
@@ -285,21 +285,24 @@ _UNROLLED_FRAMES = 64
 def _sum_frames(x: Array, axis: int) -> Array:
     """``x`` summed over its frames ``axis``. A few frames on a major axis (a camera frame's chunk,
     frames first) are added one by one, an elementwise loop XLA fuses with their producers: its CPU
-    reduction of a major axis runs at about 20 ns per element (8 frames of 224 x 172: 3-6 ms for one
-    sum, against 0.2 ms added one by one)."""
+    reduction of a major axis is far slower (docs/model.md, "Performance", measurement 2)."""
     return jnp.sum(x, axis=axis) if axis == -1 else sum_by_slices(x, axis, _UNROLLED_FRAMES)
+
+
+def sample_mean_std(n: Array, total: Array, total2: Array) -> tuple[Array, Array, Array]:
+    """Mean and ddof-1 standard deviation of ``n`` deviations from their sums ``total`` and sums of
+    squares ``total2``, and whether there were at least two (else both are meaningless: the callers
+    put NaN there). The one definition of the frames' statistics, for single and fused frequencies."""
+    enough = n >= 2
+    n_safe = jnp.where(enough, n, 2.0)
+    mean = total / n_safe
+    return mean, _depth.safe_sqrt(jnp.maximum(total2 - n_safe * mean**2, 0.0) / (n_safe - 1.0)), enough
 
 
 def frame_statistics(c: PointConstants, sums: Sums, frames: int):
     """(mean phase in [0, 2 pi), phase std, amplitude mean, amplitude std) over the valid frames;
     NaN below two valid frames."""
-    n = sums.valid
-    enough = n >= 2
-    n_safe = jnp.where(enough, n, 2.0)
-    mean_dev = sums.dev / n_safe
-    var_dev = jnp.maximum(sums.dev2 - n_safe * mean_dev**2, 0.0) / (n_safe - 1.0)
-    mean_amp = sums.amp / n_safe
-    var_amp = jnp.maximum(sums.amp2 - n_safe * mean_amp**2, 0.0) / (n_safe - 1.0)
+    mean_dev, sd_dev, enough = sample_mean_std(sums.valid, sums.dev, sums.dev2)
+    mean_amp, sd_amp, _ = sample_mean_std(sums.valid, sums.amp, sums.amp2)
     nan = lambda x: jnp.where(enough, x, jnp.nan)  # noqa: E731
-    return (nan(jnp.mod(c.ref_phase + mean_dev, _TWO_PI)), nan(_depth.safe_sqrt(var_dev)),
-            nan(c.ref_amp + mean_amp), nan(_depth.safe_sqrt(var_amp)))
+    return nan(jnp.mod(c.ref_phase + mean_dev, _TWO_PI)), nan(sd_dev), nan(c.ref_amp + mean_amp), nan(sd_amp)

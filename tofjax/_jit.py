@@ -2,14 +2,12 @@
 
 :func:`jit` compiles a function the way ``equinox.filter_jit`` does (array leaves of the arguments
 traced, every other leaf static and part of the cache key), but keeps its own cache of one
-``jax.jit`` per argument structure, so that a call costs one pytree flatten and jax's C++ dispatch:
-about 0.05 ms for a frame's chain (61 arrays) where ``equinox.filter_jit`` spends 0.4-0.9 ms
-re-partitioning the arguments on every call (equinox issue #973). That is a fifth of a 224 x 172
-noise image, and a third of a short ``predict``. Used for the programs users call in loops (frames,
+``jax.jit`` per argument structure, so that a call costs one pytree flatten and jax's C++ dispatch,
+where ``equinox.filter_jit`` re-partitions the arguments on every call (equinox issue #973;
+docs/model.md, "Performance", measurement 11). Used for the programs users call in loops (frames,
 ``predict``, ``simulate``); the small helpers keep ``equinox.filter_jit``. Public as ``tofjax.jit``,
 for other packages' entry points that are called in loops (``fitting``'s least-squares steps and
-posterior batches: 4-5 ms of ``equinox.filter_jit`` dispatch per posterior batch of a 3-file problem,
-a third of the batch).
+posterior batches).
 
 Differences from ``equinox.filter_jit``: the outputs must be arrays (pytrees of them, with static
 fields as usual); arguments are bound to the signature with its defaults applied, so leaving out a

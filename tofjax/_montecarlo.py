@@ -83,9 +83,9 @@ class FramesStep(eqx.Module):
 
     A chunk of fewer frames than points (a camera frame's pixels) whose frames are not kept is drawn
     frames first, so that the points are the arrays' minor axis: with a minor axis of a few frames
-    XLA's CPU loops run slower per element (8 frames of 224 x 172 rendered: 44-54 -> 31-41 ms). Kept
-    frames stay points first, the layout they are returned in: transposed from frames first, 32 kept
-    frames of 224 x 172 took 162 ms instead of 120."""
+    XLA's CPU loops run slower per element. Kept frames stay points first, the layout they are
+    returned in: transposing them from frames first costs more (docs/model.md, "Performance",
+    measurement 6)."""
 
     chain: Chain
     words: tuple[Array, Array]

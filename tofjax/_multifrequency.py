@@ -46,7 +46,7 @@ from . import _jit
 from ._analytic import analytic, moments
 from ._chain import Chain, build_chain
 from ._executor import execute
-from ._frames import draw_frames, reduce_frames, wrap
+from ._frames import draw_frames, reduce_frames, sample_mean_std, wrap
 from ._montecarlo import assemble, check_counts, prepare
 from ._constants import SPEED_OF_LIGHT_M_PER_S
 from ._params import Params
@@ -291,11 +291,7 @@ def _finish(params, sweep, iterations, freqs, extended, fusion, chains, prepared
     d = sweep.operating_points(params.scene)[0]
     shape = d.shape
     points = lambda x: x.reshape(shape + x.shape[1:])  # noqa: E731
-    n = combined.good
-    enough = n >= 2
-    n_safe = jnp.where(enough, n, 2.0)
-    mean_dev = combined.dev / n_safe
-    var = jnp.maximum(combined.dev2 - n_safe * mean_dev**2, 0.0) / (n_safe - 1.0)
+    mean_dev, sd_dev, enough = sample_mean_std(combined.good, combined.dev, combined.dev2)
     to_m = extended / (2.0 * jnp.pi)
     mean = jnp.mod(reference + to_m * mean_dev, extended)
     frames = (None, None, None) if kept is None else tuple(points(x) for x in kept[1:])
@@ -303,7 +299,7 @@ def _finish(params, sweep, iterations, freqs, extended, fusion, chains, prepared
         frequencies_hz=freqs, extended_range_m=jnp.asarray(extended), distance_m=d, per_frequency=per,
         depth_m=frames[0], valid=frames[1], wrong_unwrap=frames[2],
         depth_mean_m=points(jnp.where(enough, mean, jnp.nan)),
-        depth_std_m=points(jnp.where(enough, to_m * jnp.sqrt(var), jnp.nan)),
+        depth_std_m=points(jnp.where(enough, to_m * sd_dev, jnp.nan)),
         wrong_unwrap_fraction=points(jnp.where(combined.valid > 0, combined.wrong / jnp.maximum(combined.valid, 1.0),
                                                jnp.nan)),
         valid_fraction=points(combined.valid / float(iterations)), fusion=fusion,

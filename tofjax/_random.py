@@ -105,8 +105,7 @@ def normals(key: tuple[Array, Array], frame: UInt32[Array, "*s"], sample: UInt32
 
     One block per normal, not four normals per block: XLA's CPU fusion evaluates each output word
     of a block with its own ten rounds anyway, and gathering the four words into one array costs
-    more on top (154 k words: 0.85-1.0 ms as the first words of 154 k blocks, 3.1-3.3 ms as all
-    four words of 38.5 k blocks)."""
+    more on top (docs/model.md, "Performance", measurement 8)."""
     frame, sample = jnp.asarray(frame, dtype=jnp.uint32), jnp.asarray(sample, dtype=jnp.uint32)
     shape = jnp.broadcast_shapes(frame.shape, sample.shape)
     block = jnp.arange(count, dtype=jnp.uint32).reshape((count,) + (1,) * len(shape))

@@ -53,8 +53,8 @@ def _fourier_series_of_pulse(u: Array, duty: Array, order: int) -> Array:
 
 def _gauss_extended(u: Array, duty: Array, order: int) -> Array:
     # Sum the neighbouring periods so wide, low-order pulses stay periodic. The five images added one
-    # by one: as a reduction over a last axis of 5, XLA's CPU library kernel took 0.5 ms per waveform
-    # on the coefficients' grid, a third of every call's correlation table.
+    # by one: a reduction over a last axis of 5 is a slow library kernel on a CPU (docs/model.md,
+    # "Performance", measurement 3).
     images = [jnp.exp(-jnp.log(2.0) * ((u + k) / (0.5 * duty)) ** (2 * order)) for k in (-2.0, -1.0, 0.0, 1.0, 2.0)]
     return functools.reduce(jnp.add, images)
 

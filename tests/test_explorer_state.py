@@ -1,0 +1,61 @@
+"""The explorer's state without widgets (tofjax/_explorer_state.py): editing and validation, files in
+its one folder and the overwrite confirmation, a run and whether it is stale; no ipywidgets needed."""
+
+import subprocess
+import sys
+
+import tofjax as tj
+from tofjax._explorer_state import ExplorerState, Message
+from tofjax._schema import KEY_BY_DOTTED
+
+
+def test_the_state_needs_no_widgets():
+    code = ("import sys; sys.modules['ipywidgets'] = None\n"
+            "from tofjax._explorer_state import ExplorerState\nExplorerState()\n"
+            "assert 'ipywidgets' not in [m for m in sys.modules if sys.modules[m] is not None]")
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_edits_validate_the_whole_configuration_and_keep_the_last_valid_one(tmp_path):
+    state = ExplorerState(folder=tmp_path)
+    key = KEY_BY_DOTTED["pixel.v_saturated_v"]
+    error = state.edit(key, lambda: 3.5)  # above v_reset_v: the pair is refused, the last valid config kept
+    assert error is not None and "pixel.v_saturated_v" in error and state.error == error
+    assert float(state.config.params.pixel.v_saturated_v) == 2.0
+    assert state.edit(key, lambda: 1.5) is None and state.error is None
+    assert float(state.config.params.pixel.v_saturated_v) == 1.5
+    assert state.take_changed() == {"pixel"} and state.take_changed() == set()
+
+
+def test_files_stay_in_the_folder_and_an_existing_one_waits_for_a_confirmation(tmp_path):
+    state = ExplorerState(folder=tmp_path)
+    assert state.resolve("../outside.toml") == Message(
+        f"../outside.toml: the explorer reads and writes files only in {tmp_path.resolve()} (its folder, chosen when it "
+        "started)", True)
+    again = []
+    assert state.save("camera.toml", False, lambda overwrite: again.append(overwrite)) == Message(
+        f"saved {tmp_path.resolve() / 'camera.toml'}")
+    first = (tmp_path / "camera.toml").read_text()
+    state.edit(KEY_BY_DOTTED["pixel.v_saturated_v"], lambda: 1.5)
+    waiting = state.save("camera.toml", False, lambda overwrite: again.append(overwrite))
+    assert waiting.error and "camera.toml exists: press Overwrite" in waiting.text and state.pending is not None
+    assert (tmp_path / "camera.toml").read_text() == first  # nothing replaced before the confirmation
+    state.confirm()
+    assert again == [True]
+    assert state.save("camera.toml", True, lambda overwrite: None).text.startswith("saved ")
+    assert state.pending is None and "v_saturated_v = 1.5" in (tmp_path / "camera.toml").read_text()
+    loaded = state.load("camera.toml")
+    assert isinstance(loaded, tj.Config) and float(loaded.params.pixel.v_saturated_v) == 1.5
+
+
+def test_a_run_is_stale_once_the_settings_differ(tmp_path):
+    state = ExplorerState(tj.config_from_dict({"scene": {"samples": 5}}), folder=tmp_path)
+    assert state.check_calculate(False, -1) == Message("seed = -1 is out of range: allowed integer >= 0", True)
+    run, figures, numbers = state.compute(state.config, state.config.sweep("distance"), "analytic", 0, ["amplitude"],
+                                          overlay=False)
+    state.accept(run, figures, numbers)
+    assert set(figures) == {"amplitude"} and not state.stale("distance", "analytic", 0)
+    assert state.stale("illuminance", "analytic", 0) and state.stale("distance", "mc", 0)
+    assert not state.stale("distance", "analytic", 7)  # the seed matters to Monte Carlo runs only
+    state.edit(KEY_BY_DOTTED["scene.distance_m"], lambda: 2.0)
+    assert state.stale("distance", "analytic", 0)
