@@ -1,5 +1,6 @@
 """Range extension with several modulation frequencies (thesis §2.2, Fig 5.9; tofjax/_multifrequency.py)."""
 
+import equinox as eqx
 import jax
 import numpy as np
 import pytest
@@ -59,3 +60,24 @@ def test_multifrequency_from_the_configuration(tmp_path, capsys):
     bad.write_text("[illumination_waveform]\nextra_modulation_frequencies_hz = [80.32e6]\n")
     assert main(["simulate", "--config", str(bad), "--sweep", "distance", "--out", str(out)]) == 2
     assert "repeats a frequency" in capsys.readouterr().err
+
+
+def test_every_frequency_keeps_its_raw_phase_images():
+    """A multi-frequency camera's kept frames carry each frequency's raw phase images: both taps as
+    read, whose difference digitises to that frequency's codes, and the frames are the same with and
+    without them."""
+    from tofjax._chain import build_chain
+
+    freqs = (80.32e6, 60.24e6)
+    camera = tj.Camera(tj.Params(), frequencies_hz=freqs)
+    sweep = tj.Sweep("distance", [0.6, 1.7, 3.1])
+    raw = tj.simulate(camera, sweep, jax.random.key(3), 40, keep_frames=3, raw=True)
+    plain = tj.simulate(camera, sweep, jax.random.key(3), 40, keep_frames=3)
+    per = raw.per_frequency
+    assert per.frames_tap_a_e.shape == per.frames_tap_b_e.shape == per.codes.shape == (2, 3, 3, 4)
+    np.testing.assert_array_equal(per.codes, plain.per_frequency.codes)
+    np.testing.assert_allclose(raw.depth_m, plain.depth_m, rtol=1e-15)  # another program: rounding
+    for i, f in enumerate(freqs):
+        chain = build_chain(eqx.tree_at(lambda p: p.illumination_waveform.modulation_frequency_hz, camera.params, f))
+        difference = np.asarray(per.frames_tap_a_e[i]) - np.asarray(per.frames_tap_b_e[i])
+        np.testing.assert_array_equal(chain.readout.quantize(chain.readout.position(difference)), per.codes[i])

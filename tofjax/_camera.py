@@ -182,7 +182,8 @@ def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frame
 
     **Arguments:** ``camera`` (:class:`tofjax.Camera`), ``scene`` (as :func:`predict`), ``key`` (a
     ``jax.random`` key: the same key, the same frames), ``frames`` (static), ``keep_frames`` (frames
-    returned whole, static), ``raw`` (the kept frames' raw phase images too, static; one frequency),
+    returned whole, static), ``raw`` (the kept frames' raw phase images too, static; with several
+    frequencies, each frequency's in ``per_frequency``),
     ``progress`` (report the chunks to :mod:`tofjax.progress`). Returns a :class:`tofjax.Result`,
     :class:`tofjax.MultiFrequencyResult` or :class:`tofjax.FrameResult`, as :func:`predict`.
 
@@ -211,13 +212,10 @@ def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frame
                      raw=raw)
         if camera.multifrequency:
             camera._no_pattern("a multi-frequency sweep")
-            if raw:
-                raise ValueError("raw = True: the raw phase images of a multi-frequency sweep are not kept; "
-                                 "simulate one frequency, or frames")
             from ._multifrequency import simulate_multifrequency
 
             return simulate_multifrequency(camera.params, scene, key, frames, camera.frequencies_hz,
-                                           keep_frames=keep_frames, progress=progress, fusion=camera.fusion)
+                                           keep_frames=keep_frames, progress=progress, fusion=camera.fusion, raw=raw)
         return simulate_sweep(camera.params, scene, key, frames, smooth=camera.smooth, pattern=camera.pattern,
                               keep_frames=keep_frames, raw=raw, progress=progress)
     return camera.expose(scene).render(key, frames, keep_frames=keep_frames, raw=raw, progress=progress)

@@ -197,25 +197,28 @@ def _predict(params, sweep, freqs, extended, ranges, fusion, smooth) -> MultiFre
 
 def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, iterations: int,
                             frequencies_hz, *, keep_frames: int = 0, progress: bool = False,
-                            fusion: str = "inverse_variance") -> MultiFrequencyResult:
+                            fusion: str = "inverse_variance", raw: bool = False) -> MultiFrequencyResult:
     """Monte Carlo at every frequency (frames drawn together, chunk by chunk) and the combined,
     unwrapped distance.
 
     **Arguments:** as :func:`tofjax.simulate`, plus ``frequencies_hz``: two or more modulation
     frequencies (concrete values; ``params``' own frequency is replaced by each in turn), and
     ``keep_frames``: unwrapped frames to return per point (the plots use them); ``progress``: as
-    :func:`tofjax.simulate`.
+    :func:`tofjax.simulate`; ``raw`` (static): every frequency's kept frames carry their raw phase
+    images' taps too (``per_frequency.frames_tap_a_e`` / ``frames_tap_b_e`` beside
+    ``per_frequency.codes``, a leading frequency axis).
     """
     check_inputs(params, sweep)
     freqs = np.asarray(frequencies_hz, dtype=float).reshape(-1)
     if freqs.size < 2 or not np.all(freqs > 0) or len(set(freqs.tolist())) != freqs.size:
         raise ValueError(f"frequencies_hz = {freqs.tolist()} must be two or more distinct frequencies > 0 Hz")
     # Frames are kept per frequency and once more unwrapped.
-    check_counts(iterations, keep_frames, sweep.samples * (freqs.size + 1), params.pixel.n_phases)
+    check_counts(iterations, keep_frames, sweep.samples * (freqs.size + 1), params.pixel.n_phases, raw=raw)
     c = float(params.constants.speed_of_light_m_per_s)
     ranges = tuple(float(x) for x in c / (2.0 * freqs))
     freqs, extended = jnp.asarray(freqs), float(extended_range_m(freqs, c))
-    return execute(_run_setup, _run_consts, _run_finish, (params, sweep, key, freqs, extended, ranges, fusion, iterations),
+    return execute(_run_setup, _run_consts, _run_finish,
+                   (params, sweep, key, freqs, extended, ranges, fusion, iterations, raw),
                    points=sweep.samples, frames=iterations, keep=keep_frames, phases=params.pixel.n_phases,
                    progress=progress)
 
@@ -230,13 +233,15 @@ class _Step(eqx.Module):
     streams: Array
     ranges: tuple[float, ...] = eqx.field(static=True)
     extended: float = eqx.field(static=True)
+    raw: bool = eqx.field(static=True, default=False)
 
     def __call__(self, cb, first, n, counted, record):
         ranges, extended, words = np.asarray(self.ranges), self.extended, self.words
         consts, ref, true, w = cb
         linear = jnp.all(consts.linear, axis=0)  # a point's path, the same at every frequency (outside the vmap)
-        frames = jax.vmap(lambda ch, c, st: draw_frames(ch, c, words, first, n, st, linear))(self.chains, consts,
-                                                                                             self.streams)
+        taps = record and self.raw
+        frames = jax.vmap(lambda ch, c, st: draw_frames(ch, c, words, first, n, st, linear, taps=taps))(
+            self.chains, consts, self.streams)
         per, valid_f = jax.vmap(lambda c, f: reduce_frames(c, f, counted[None, :]))(consts, frames)
         valid = jnp.all(valid_f, axis=0)
         depth = unwrap_frequencies(jnp.where(valid[None], jnp.mod(frames.phase, 2.0 * jnp.pi), 0.0), ranges, extended,
@@ -251,13 +256,14 @@ class _Step(eqx.Module):
         combined = _Combined(count(good), count(wrong), count(use), jnp.sum(dev, -1), jnp.sum(dev * dev, -1))
         out = None
         if record:
-            kept_f = (jnp.moveaxis(frames.codes, 1, -1), jnp.mod(frames.phase, 2.0 * jnp.pi), frames.amplitude, valid_f)
+            kept_f = (jnp.moveaxis(frames.codes, 1, -1), jnp.mod(frames.phase, 2.0 * jnp.pi), frames.amplitude, valid_f,
+                      *((jnp.moveaxis(frames.tap_a_e, 1, -1), jnp.moveaxis(frames.tap_b_e, 1, -1)) if taps else ()))
             kept_f = jax.tree_util.tree_map(lambda x: jnp.moveaxis(x, 0, 1), kept_f)  # points first
             out = (kept_f, depth, valid, wrong)
         return (per, combined), out
 
 
-def _setup(params, sweep, key, freqs, extended, ranges, fusion):
+def _setup(params, sweep, key, freqs, extended, ranges, fusion, raw=False):
     """Every frequency's chain and frames' constants, the chunk step, and the blocks' inputs (the
     constants, the noise-free unwrapped distance, the true distance, the fusion weights)."""
     ranges = np.asarray(ranges)  # concrete: the number of unwrapping candidates depends on them
@@ -278,7 +284,7 @@ def _setup(params, sweep, key, freqs, extended, ranges, fusion):
     truth = jnp.mod(d.reshape(-1), extended)
     # Centre of the combined statistics: the noise-free frames' unwrapped distance.
     reference = unwrap_frequencies(jnp.mod(prepared.consts.ref_phase, 2.0 * jnp.pi), ranges, extended, weights)
-    step = _Step(chains, words, jnp.arange(n_freq, dtype=jnp.uint32), tuple(float(r) for r in ranges), extended)
+    step = _Step(chains, words, jnp.arange(n_freq, dtype=jnp.uint32), tuple(float(r) for r in ranges), extended, raw)
     return chains, prepared, step, (prepared.consts, reference, truth, weights)
 
 
@@ -307,18 +313,18 @@ def _finish(params, sweep, iterations, freqs, extended, fusion, chains, prepared
 
 
 @_jit.jit
-def _run_setup(params, sweep, key, freqs, extended, ranges, fusion, iterations):
+def _run_setup(params, sweep, key, freqs, extended, ranges, fusion, iterations, raw):
     """:func:`simulate_multifrequency`'s run (:func:`tofjax._executor.execute`)."""
-    chains, prepared, step, consts = _setup(params, sweep, key, freqs, extended, ranges, fusion)
+    chains, prepared, step, consts = _setup(params, sweep, key, freqs, extended, ranges, fusion, raw)
     return (chains, prepared, consts), step
 
 
-def _run_consts(params, sweep, key, freqs, extended, ranges, fusion, iterations, carry):
+def _run_consts(params, sweep, key, freqs, extended, ranges, fusion, iterations, raw, carry):
     return carry[2]
 
 
 @_jit.jit
-def _run_finish(params, sweep, key, freqs, extended, ranges, fusion, iterations, carry, sums, kept
+def _run_finish(params, sweep, key, freqs, extended, ranges, fusion, iterations, raw, carry, sums, kept
                 ) -> MultiFrequencyResult:
     chains, prepared, consts = carry
     return _finish(params, sweep, iterations, freqs, extended, fusion, chains, prepared, consts[1], sums, kept)
