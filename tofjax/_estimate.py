@@ -32,21 +32,25 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from ._chain import build_chain
+from ._noise import Noise
 from ._params import Params
 from ._reduce import mean_last
+from ._stages import Moments, fold_moments
 from ._sweep import Sweep, check_inputs
 from ._waveforms import fourier_coefficients
 
 
 def _budget(params: Params, sweep: Sweep):
-    """Active electrons and the differential variance sigma_D^2 (mean over the phase images), e-^2."""
+    """Active electrons and the differential variance sigma_D^2 (mean over the phase images), e-^2:
+    the moments folded through the chain's noise stages as they stand in its tuple, with no limit
+    acting (the estimate's premise), plus the readout's quantisation variance."""
     check_inputs(params, sweep)
     chain = build_chain(params, points=sweep.samples)
     charges = chain.expose(*sweep.operating_points(params.scene))
+    m = fold_moments(tuple(s for s in chain.stages if isinstance(s, Noise)), Moments.of(charges))
     readout = chain.readout
-    quant_e2 = chain.readout.quantization_variance_lsb2 * readout.lsb_e**2 if chain.noise.enabled else 0.0
-    var_d = mean_last(chain.noise.differential_variance_e2(charges)) + quant_e2
-    return charges.signal_e, var_d
+    quant_e2 = readout.quantization_variance_lsb2 * readout.lsb_e**2 if readout.dithered else 0.0
+    return charges.signal_e, mean_last(m.var_a + m.var_b) + quant_e2
 
 
 @eqx.filter_jit

@@ -54,7 +54,6 @@ if TYPE_CHECKING:
 BEFORE_LIMIT = "before_limit"
 #: A source acting on the held tap charge, after SBI and saturation.
 AFTER_LIMIT = "after_limit"
-NODES = (BEFORE_LIMIT, AFTER_LIMIT)
 
 
 def _kelvin(pixel: Pixel) -> Array:
@@ -236,14 +235,6 @@ class NoiseBudget(eqx.Module):
     def stage(self, node: str) -> Noise:
         """The :class:`Noise` stage of the sources at ``node``."""
         return Noise(tuple(source for source in self.sources if source.node == node), self.enabled)
-
-    def differential_variance_e2(self, charges: TapCharges) -> Float[Array, "*b phases"]:
-        """Variance of A - B of one phase image from every source, where no limit acts."""
-        total = jnp.zeros(charges.photo_a.shape)
-        for node in NODES:
-            a, b = self.variance_e2(charges, node)
-            total = total + a + b
-        return total
 
     def breakdown(self, charges: TapCharges, quantization_e: Float[Array, ""]) -> NoiseBreakdown:
         """rms of every source in the differential A - B of one phase image (mean over the phases)."""
