@@ -3,9 +3,9 @@
 
 Per phase image: the noise sources before the limit give each tap's variance; the limit passes
 them to the held differential with its closed-form slopes; the sources after the limit add theirs;
-the readout's gain compression maps the mean and variance exactly (a cubic of a Gaussian); the
-readout's slope carries the variance to the code, and the quantisation variance joins it. The
-demodulation's delta method then gives phase and amplitude statistics with the higher orders of a
+the readout's gain compression maps the variance exactly and the mean to first order (a cubic of a
+Gaussian); the readout's slope carries the variance to the code, and the quantisation variance
+joins it. The demodulation's delta method then gives phase and amplitude statistics with the higher orders of a
 phasor in Gaussian noise (:func:`tofjax._depth.delta_method`). No stage is differentiated
 numerically; the cost per operating point is a few hundred flops and O(phases) memory.
 """
