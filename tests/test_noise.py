@@ -116,3 +116,21 @@ def test_a_readout_noise_source_adds_its_closed_form():
     ratio2 = (np.asarray(more.depth_std_m) / np.asarray(base.depth_std_m)) ** 2
     np.testing.assert_allclose(ratio2, np.asarray(more.noise.total_e / base.noise.total_e) ** 2, rtol=1e-3)
     assert np.all(ratio2 > 1.05)
+
+
+def test_dark_current_doubles_every_doubling_temperature():
+    """2^((T - T_ref) / T_2): one doubling temperature above the reference the mean dark electrons and
+    the dark shot noise's variance double (the kTC noise changes too, but not the dark electrons); at
+    the reference temperature nothing changes whatever T_2; d(dark)/dT = ln 2 / T_2 x dark."""
+    sweep = tofjax.Sweep("distance", [1.5])
+
+    def dark(**pixel):
+        r = tofjax.predict(tofjax.Params(pixel=tofjax.Pixel(**pixel)), sweep)
+        return float(r.noise.dark_e[0]), float(r.noise.sources["dark_shot"][0]) ** 2
+
+    base, hot = dark(), dark(temperature_c=32.0)  # defaults: T_ref = 25 degC, T_2 = 7 degC
+    np.testing.assert_allclose(hot, (2 * base[0], 2 * base[1]), rtol=1e-12)
+    np.testing.assert_allclose(dark(temperature_c=11.0)[0], base[0] / 4, rtol=1e-12)
+    assert dark(temperature_c=40.0, dark_reference_temperature_c=40.0, dark_doubling_temperature_c=3.0) == base
+    grad = jax.grad(lambda t: tofjax.predict(tofjax.Params(pixel=tofjax.Pixel(temperature_c=t)), sweep).noise.dark_e[0])
+    np.testing.assert_allclose(float(grad(25.0)), math.log(2) / 7.0 * base[0], rtol=1e-10)

@@ -72,11 +72,22 @@ def hold_noise_e(pixel: Pixel, constants: PhysicalConstants) -> Float[Array, ""]
     return v * pixel.integration_capacitance_f / constants.elementary_charge_c
 
 
+def dark_current_factor(pixel: Pixel) -> Float[Array, ""]:
+    """The dark current at the sensor's temperature over that at the dark slopes' reference
+    temperature: 2^((T - T_ref) / T_2), the dark current doubling every T_2 ("the dark current can
+    double for every 5 °C ... 8 °C temperature increase": A. Theuwissen, Harvest Imaging blog,
+    September 2009, harvestimaging.com/blog/?m=200909; docs/model.md, "Noise"). Exactly 1 at the
+    reference temperature."""
+    return 2.0 ** ((pixel.temperature_c - pixel.dark_reference_temperature_c) / pixel.dark_doubling_temperature_c)
+
+
 def dark_electrons(
     pixel: Pixel, integration_time_s: Float[Array, "*b"], constants: PhysicalConstants, slope_v_per_s=None
 ) -> Float[Array, "*b"]:
-    """Mean dark electrons of one tap: slope t C_int / e (§4.2.14)."""
+    """Mean dark electrons of one tap: slope t C_int / e (§4.2.14), the slope (the mean's, or a
+    pixel's own from the fixed pattern) scaled to the sensor's temperature (:func:`dark_current_factor`)."""
     slope = pixel.dark_slope_mean_v_per_s if slope_v_per_s is None else slope_v_per_s
+    slope = slope * dark_current_factor(pixel)
     return slope * integration_time_s * pixel.integration_capacitance_f / constants.elementary_charge_c
 
 

@@ -148,6 +148,8 @@ class Pixel(eqx.Module):
     temperature_c: Scalar = _float("pixel", "temperature_c")
     dark_slope_mean_v_per_s: Scalar = _float("pixel", "dark_slope_mean_v_per_s")
     dark_slope_sigma_v_per_s: Scalar = _float("pixel", "dark_slope_sigma_v_per_s")
+    dark_reference_temperature_c: Scalar = _float("pixel", "dark_reference_temperature_c")
+    dark_doubling_temperature_c: Scalar = _float("pixel", "dark_doubling_temperature_c")
     readout_noise_e: Scalar = _float("pixel", "readout_noise_e")
     readout_nonlinearity: Scalar = _float("pixel", "readout_nonlinearity")
     full_well_e: Scalar = _float("pixel", "full_well_e")
