@@ -511,7 +511,18 @@ def test_render_command_writes_every_output(tmp_path, capsys):
     assert data["raw_modulation_frequencies_hz"].tolist() == [80.32e6] and "Decoding" in str(data["raw_convention"])
     assert data["predicted_std_m"].shape == (ROWS, COLS)
     good = int(np.sum(data["flags"] == 0))
-    assert len(frameio.read_ply(out / "points.ply")) == good > 0
+    cloud = frameio.read_ply(out / "points.ply")
+    assert len(cloud) == good > 0 and cloud["red"].dtype == np.uint8 and cloud["red"].max() > 0
+    np.testing.assert_array_equal(cloud["red"], cloud["blue"])  # grey by amplitude
+    # The 16-bit images: Z depth in whole millimetres and amplitude in LSB, 0 where a pixel is not good.
+    from PIL import Image
+
+    ok = (data["flags"] == 0) & np.isfinite(data["radial_m"])
+    for name, key, scale in (("depth_mm.png", "z_m", 1e3), ("amplitude.png", "amplitude_lsb", 1.0)):
+        image = np.asarray(Image.open(out / name))
+        assert image.dtype == np.uint16 and image.shape == (ROWS, COLS)
+        np.testing.assert_array_equal(image[ok], np.round(data[key][ok] * scale))
+        assert np.all(image[~ok] == 0)
     assert {"radial_m.png", "predicted_std_mm.png", "error_mm.png", "report.html"} <= {p.name for p in out.iterdir()}
     assert "data:image/png;base64" in (out / "report.html").read_text()
 

@@ -114,19 +114,24 @@ def write_npz(path, arrays: dict[str, np.ndarray]) -> Path:
     return write_npz_file(path, {"format": np.array("tofjax-frame/1"), **arrays})
 
 
-def write_ply(path, points_m: np.ndarray, values: np.ndarray | None = None) -> Path:
-    """A binary little-endian PLY point cloud: float32 x, y, z (m) and, if given, a float32
-    ``intensity`` per point."""
+def write_ply(path, points_m: np.ndarray, values: np.ndarray | None = None, grey: np.ndarray | None = None) -> Path:
+    """A binary little-endian PLY point cloud: float32 x, y, z (m); if given, a float32
+    ``intensity`` per point; if given, a grey level per point (0-255) as uchar ``red``, ``green``,
+    ``blue``: the colour Open3D and other viewers show."""
     path = Path(path)
     pts = np.asarray(points_m, dtype="<f4").reshape(-1, 3)
     fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")] + ([("intensity", "<f4")] if values is not None else [])
+    fields += [(c, "u1") for c in ("red", "green", "blue")] if grey is not None else []
     data = np.empty(len(pts), dtype=fields)
     data["x"], data["y"], data["z"] = pts[:, 0], pts[:, 1], pts[:, 2]
     if values is not None:
         data["intensity"] = np.asarray(values, dtype="<f4").reshape(-1)
+    if grey is not None:
+        for c in ("red", "green", "blue"):
+            data[c] = np.asarray(grey, dtype=np.uint8).reshape(-1)
     header = ["ply", "format binary_little_endian 1.0", "comment tofjax frame: x right, y up, z along the optical "
               "axis, metres", f"element vertex {len(pts)}"]
-    header += [f"property float {name}" for name, _ in fields] + ["end_header"]
+    header += [f"property {'uchar' if kind == 'u1' else 'float'} {name}" for name, kind in fields] + ["end_header"]
     write_bytes(path, ("\n".join(header) + "\n").encode("ascii") + data.tobytes())
     return path
 
@@ -135,8 +140,41 @@ def read_ply(path) -> np.ndarray:
     """The vertices of a PLY written by :func:`write_ply`, as a structured array."""
     raw = Path(path).read_bytes()
     end = raw.index(b"end_header\n") + len(b"end_header\n")
-    names = [line.split()[-1] for line in raw[:end].decode("ascii").splitlines() if line.startswith("property")]
-    return np.frombuffer(raw[end:], dtype=[(n, "<f4") for n in names])
+    props = [line.split()[1:] for line in raw[:end].decode("ascii").splitlines() if line.startswith("property")]
+    return np.frombuffer(raw[end:], dtype=[(name, "u1" if kind == "uchar" else "<f4") for kind, name in props])
+
+
+def grey_levels(values: np.ndarray) -> np.ndarray:
+    """Grey levels 0-255 of ``values``, 255 at their 99th percentile (a few bright pixels do not
+    darken the rest)."""
+    values = np.asarray(values, dtype=float)
+    finite = values[np.isfinite(values)]
+    top = float(np.percentile(finite, 99)) if finite.size else 0.0
+    scaled = np.where(np.isfinite(values), values, 0.0) / top if top > 0 else np.zeros(values.shape)
+    return np.round(255 * np.clip(scaled, 0.0, 1.0)).astype(np.uint8)
+
+
+#: The 16-bit images engineers load directly: file -> (array, scale to the stored unit).
+SIXTEEN_BIT = {"depth_mm.png": ("z_m", 1e3), "amplitude.png": ("amplitude_lsb", 1.0)}
+
+
+def sixteen_bit(values: np.ndarray, scale: float, good: np.ndarray) -> np.ndarray:
+    """``values x scale`` rounded to uint16; 0 where a pixel is not good, not finite or beyond 65535
+    (0 is "no value", as in the depth images of other depth cameras)."""
+    x = np.asarray(values, dtype=float) * scale
+    ok = good & np.isfinite(x) & (x >= 0) & (np.round(x) <= 65535)
+    return np.where(ok, np.round(np.where(ok, x, 0.0)), 0).astype(np.uint16)
+
+
+def write_png16(path, image: np.ndarray) -> Path:
+    """A 16-bit grayscale PNG of a uint16 image (Pillow, which matplotlib brings), written atomically."""
+    import io
+
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(image, dtype=np.uint16)).save(buffer, format="PNG")
+    return write_bytes(path, buffer.getvalue())
 
 
 def write_png(path, image: np.ndarray, title: str, unit: str, cmap: str = "viridis", vmin=None, vmax=None) -> Path:
@@ -233,14 +271,17 @@ def write_report(directory, arrays: dict[str, np.ndarray], pngs: list[Path], tit
 
 
 def write_frame(directory, arrays: dict[str, np.ndarray], title: str, lines: list[str]) -> dict:
-    """Everything ``tofjax render`` writes into ``directory``: ``frame.npz``, the PNG maps,
-    ``points.ply`` (the good pixels, with their intensity) and ``report.html``. Returns
-    ``{"pngs": [...], "points": n}``."""
+    """Everything ``tofjax render`` writes into ``directory``: ``frame.npz``, the PNG maps, the
+    16-bit ``depth_mm.png`` (Z depth in millimetres) and ``amplitude.png`` (LSB), both 0 where a
+    pixel is not good, ``points.ply`` (the good pixels, with their intensity, grey by amplitude) and
+    ``report.html``. Returns ``{"pngs": [...], "points": n}``."""
     directory = Path(directory)
     write_npz(directory / "frame.npz", arrays)
     pngs = write_maps(directory, arrays)
     keep = (arrays["flags"] == 0) & np.isfinite(arrays["radial_m"])
+    for name, (key, scale) in SIXTEEN_BIT.items():
+        write_png16(directory / name, sixteen_bit(arrays[key], scale, keep))
     cloud = arrays["radial_m"][keep][:, None] * arrays["direction"][keep]
-    write_ply(directory / "points.ply", cloud, arrays["intensity_e"][keep])
+    write_ply(directory / "points.ply", cloud, arrays["intensity_e"][keep], grey_levels(arrays["amplitude_lsb"][keep]))
     write_report(directory, arrays, pngs, title, lines)
     return {"pngs": pngs, "points": len(cloud)}

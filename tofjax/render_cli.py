@@ -1,7 +1,8 @@
 """``tofjax render``: full frames of a scene (docs/model.md, "Full frames").
 
 Writes into ``--out DIR``: ``frame.npz`` (every image, and the kept frames), PNG colour maps with
-colour bars, ``points.ply`` (the good pixels' point cloud) and a self-contained ``report.html``.
+colour bars, 16-bit ``depth_mm.png`` and ``amplitude.png``, ``points.ply`` (the good pixels' point cloud) and a
+self-contained ``report.html``.
 """
 
 from __future__ import annotations
@@ -300,5 +301,6 @@ def run(args) -> int:
     numbers = frameio.headlines(arrays)
     print(f"{rows} x {cols} pixels, {args.frames} frames in {t2 - t1:.2f} s; " + _summary(numbers)
           + f"; {written['points']} points")
-    print(f"wrote frame.npz, {len(written['pngs'])} PNGs, points.ply and report.html to {args.out}")
+    print(f"wrote frame.npz, {len(written['pngs'])} PNGs, depth_mm.png and amplitude.png (16-bit), points.ply and "
+          f"report.html to {args.out}")
     return 0
