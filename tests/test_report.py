@@ -35,3 +35,23 @@ def test_headlines_are_physical():
     assert no_sbi["pixel_saturates_at_lx"] == pytest.approx(h["sbi_engages_at_lx"], rel=0.05)
     sources = [region["source"] for region in h["dominant_noise"]]
     assert sources == ["photon shot noise", "read noise"]  # shot noise near, read noise far
+
+
+def test_one_summary_renders_as_text_markdown_and_html_with_every_text_escaped():
+    from tofjax.report import Code, Figure, Section, Summary, Table
+
+    odd = "<b>|x|[l](u)*`.csv"
+    summary = Summary("title <i>", [f"line {odd}"], [
+        Section("S", ["para & more", [odd, "two"], Table(("file", "n"), ((odd, "1"), ("b", "2")), (True, False)),
+                      Figure("f.png", b"\x89PNG fake", "cap"), Code("[a]\nb = 1")]),
+    ])
+    text = summary.text()
+    assert text.splitlines()[0] == f"line {odd}" and f"- {odd}" in text and "[figure f.png: cap]" in text
+    assert "    [a]" in text and any(line.strip().startswith(odd) for line in text.splitlines())
+    md = summary.markdown()
+    assert "<b>" not in md and "&lt;b&gt;\\|x\\|\\[l\\](u)\\*\\`.csv" in md and "![cap](f.png)" in md
+    assert "| file | n |\n|---|---|\n" in md and "```\n[a]\nb = 1\n```" in md
+    page = summary.html()
+    assert "<b>" not in page and "<i>" not in page and "&lt;b&gt;|x|[l](u)*`.csv" in page
+    assert page.count("<tr class='muted'>") == 1 and "data:image/png;base64,iVBORyBmYWtl" in page  # b64 of the bytes
+    assert summary.html_fragment() == "line &lt;b&gt;|x|[l](u)*`.csv"
