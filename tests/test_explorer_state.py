@@ -44,8 +44,9 @@ def test_files_stay_in_the_folder_and_an_existing_one_waits_for_a_confirmation(t
     assert again == [True]
     assert state.save("camera.toml", True, lambda overwrite: None).text.startswith("saved ")
     assert state.pending is None and "v_saturated_v = 1.5" in (tmp_path / "camera.toml").read_text()
-    loaded = state.load("camera.toml")
+    loaded, message = state.load("camera.toml")
     assert isinstance(loaded, tj.Config) and float(loaded.params.pixel.v_saturated_v) == 1.5
+    assert message == Message(f"loaded {tmp_path.resolve() / 'camera.toml'}")
 
 
 def test_a_run_is_stale_once_the_settings_differ(tmp_path):

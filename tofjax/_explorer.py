@@ -655,12 +655,11 @@ class Explorer:
 
     def load(self, path: str | os.PathLike | None = None) -> None:
         """Load a TOML configuration (the Load button: from the path box, in :attr:`folder`)."""
-        text = self._path_text(path)
-        config = self.state.load(text)
-        if isinstance(config, Message):
-            self._say(config)
+        config, message = self.state.load(self._path_text(path))
+        if config is None:
+            self._say(message)
         else:
-            self._show(config, f"loaded {self.state.resolve(text)}")
+            self._show(config, message.text)
 
     def reset(self) -> None:
         """Every field back to the built-in defaults (the Reset button); the sweep and plots too."""

@@ -174,15 +174,15 @@ class ExplorerState:
         """Run the action that waits for the Overwrite confirmation."""
         return self.pending[1](overwrite=True) if self.pending is not None else None
 
-    def load(self, text: str) -> Config | Message:
-        """The configuration of the TOML file ``text`` names, or why not."""
+    def load(self, text: str) -> tuple[Config | None, Message]:
+        """The configuration of the TOML file ``text`` names and what was loaded, or ``None`` and why not."""
         path = self.resolve(text)
         if isinstance(path, Message):
-            return path
+            return None, path
         try:
-            return load_config(path)
+            return load_config(path), Message(f"loaded {path}")
         except ConfigError as err:
-            return Message(str(err), True)
+            return None, Message(str(err), True)
 
     def save(self, text: str, overwrite: bool, again: Callable) -> Message | None:
         """Write the configuration as commented TOML; ``None`` while it waits for Overwrite

@@ -163,7 +163,7 @@ def sixteen_bit(values: np.ndarray, scale: float, good: np.ndarray) -> np.ndarra
     (0 is "no value", as in the depth images of other depth cameras)."""
     x = np.asarray(values, dtype=float) * scale
     ok = good & np.isfinite(x) & (x >= 0) & (np.round(x) <= 65535)
-    return np.where(ok, np.round(np.where(ok, x, 0.0)), 0).astype(np.uint16)
+    return np.round(np.where(ok, x, 0.0)).astype(np.uint16)
 
 
 def write_png16(path, image: np.ndarray) -> Path:
