@@ -33,3 +33,36 @@ def split_between_taps(fraction_a, contrast, active_e, background_e):
     q = Exposure(contrast * active_e[..., None] * fraction_a, active_e, background_e, contrast, jnp.zeros(()),
                  zero, zero).charges()
     return q.photo_a, q.photo_b
+
+
+#: The frame tests' small camera: 31 x 21 pixels (odd, so a pixel sits on the axis) of the default pitch.
+PITCH = 17.5e-6
+COLS, ROWS = 31, 21
+
+
+def small(params=None):
+    """``params`` (default: the defaults) with the small camera's array (:data:`COLS` x :data:`ROWS`)."""
+    import equinox as eqx
+    import jax.numpy as jnp
+    import tofjax as tj
+
+    p = tj.Params() if params is None else params
+    return eqx.tree_at(lambda q: q.camera.optical_area_m, p, jnp.array([COLS * PITCH, ROWS * PITCH]))
+
+
+def opencv_project(points, camera_matrix, dist_coeffs):
+    """OpenCV's ``projectPoints`` with no rotation or translation, in NumPy, from its documentation
+    ("Camera Calibration and 3D Reconstruction"): OpenCV camera frame (x right, y down)."""
+    k1, k2, p1, p2, k3 = dist_coeffs
+    x, y = points[..., 0] / points[..., 2], points[..., 1] / points[..., 2]
+    r2 = x * x + y * y
+    radial = 1 + k1 * r2 + k2 * r2**2 + k3 * r2**3
+    xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
+    yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+    k = np.asarray(camera_matrix)
+    return np.stack([k[0, 0] * xd + k[0, 2], k[1, 1] * yd + k[1, 2]], axis=-1)
+
+
+def to_opencv(points):
+    """tofjax's camera frame (y up) to OpenCV's (y down)."""
+    return points * np.array([1.0, -1.0, 1.0])

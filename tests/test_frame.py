@@ -6,10 +6,12 @@ scene, NPZ/PLY round trips, the render command and sharding over devices.
 One small camera (31 x 21 pixels: odd, so a pixel sits on the axis) for every model evaluation."""
 
 import dataclasses
+import json
 import os
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import equinox as eqx
 import jax
@@ -25,15 +27,10 @@ from tofjax._flags import (FLAG_LOW_AMPLITUDE, FLAG_LOW_SIGNAL, FLAG_MIXED, FLAG
 from tofjax._frame import frame_charges, _frame_chain
 from tofjax._pattern import mean_pattern
 
-PITCH = 17.5e-6
+from helpers import COLS, PITCH, ROWS, opencv_project, small, to_opencv
+
 _INF = float("inf")
-COLS, ROWS = 31, 21
 CENTRE = (ROWS // 2, COLS // 2)
-
-
-def small(params=None):
-    p = tj.Params() if params is None else params
-    return eqx.tree_at(lambda q: q.camera.optical_area_m, p, jnp.array([COLS * PITCH, ROWS * PITCH]))
 
 
 @pytest.fixture(scope="module")
@@ -468,6 +465,8 @@ CONFIG = f"""
 optical_area_m = [{COLS * PITCH!r}, {ROWS * PITCH!r}]
 [frame]
 subpixel_samples = 2
+distortion_k1 = -0.2
+distortion_p2 = 0.001
 """
 
 
@@ -523,6 +522,20 @@ def test_render_command_writes_every_output(tmp_path, capsys):
         assert image.dtype == np.uint16 and image.shape == (ROWS, COLS)
         np.testing.assert_array_equal(image[ok], np.round(data[key][ok] * scale))
         assert np.all(image[~ok] == 0)
+    # The intrinsics (OpenCV's convention, in intrinsics.json and frame.npz): every point of the cloud
+    # projects onto its pixel (docs/model.md, "Lens distortion and intrinsics"; tests/test_distortion.py).
+    cam = json.loads((out / "intrinsics.json").read_text())
+    assert cam["dist_coeffs"] == [-0.2, 0.0, 0.0, 0.001, 0.0] and cam["format"] == "tofjax-intrinsics/1"
+    np.testing.assert_array_equal(data["camera_matrix"], cam["camera_matrix"])
+    np.testing.assert_array_equal(data["dist_coeffs"], cam["dist_coeffs"])
+    assert data["image_size"].tolist() == [COLS, ROWS]
+    points = np.stack([cloud["x"], cloud["y"], cloud["z"]], -1).astype(float)
+    uv = opencv_project(to_opencv(points), cam["camera_matrix"], cam["dist_coeffs"])
+    rows, cols = np.nonzero(ok)
+    np.testing.assert_allclose(uv, np.stack([cols, rows], -1), atol=1e-3)  # the PLY's float32 coordinates
+    # Every array of frame.npz is in docs/model.md's table of its layout.
+    documented = (Path(__file__).parents[1] / "docs" / "model.md").read_text()
+    assert [key for key in data.files if f"`{key}`" not in documented] == []
     assert {"radial_m.png", "predicted_std_mm.png", "error_mm.png", "report.html"} <= {p.name for p in out.iterdir()}
     assert "data:image/png;base64" in (out / "report.html").read_text()
 

@@ -30,7 +30,7 @@ import jax
 import numpy as np
 from jaxtyping import PRNGKeyArray
 
-from ._framegeometry import FrameSettings, depth_returns, scene_returns
+from ._framegeometry import FrameSettings, check_lens, depth_returns, scene_returns
 from ._params import Params
 from ._pattern import PixelPattern
 from ._returns import Returns
@@ -77,6 +77,7 @@ class Camera(eqx.Module):
         if self.fusion not in FUSIONS:
             raise ValueError(f"Camera: fusion = {self.fusion!r} is not allowed: expected one of "
                              + ", ".join(map(repr, FUSIONS)))
+        check_lens(self.params, self.settings)
         f = self.frequencies_hz
         if f and (len(f) < 2 or len(set(f)) != len(f) or not all(x > 0 for x in f)):
             raise ValueError(f"Camera: frequencies_hz = {list(f)} must be empty (the parameters' one) or two or more "

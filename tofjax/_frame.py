@@ -34,7 +34,7 @@ from ._chain import Chain, build_chain
 from ._correlation import UNROLLED_RETURNS
 from ._flags import (FLAG_LOW_AMPLITUDE, FLAG_LOW_SIGNAL, FLAG_MIXED, FLAG_NO_RETURN, FLAG_OUTSIDE_ILLUMINATION,
                      FLAG_SATURATED, FLAG_WRAPPED)
-from ._framegeometry import FrameSettings, frame_shape, pixel_etendue_m2_sr
+from ._framegeometry import FrameSettings, frame_shape, lens_distortion, pixel_etendue_m2_sr
 from ._executor import FRAME_CHUNK_ELEMENTS, equal_parts, execute, programs
 from ._frames import PointCharges, draw_frames
 from ._charges import Exposure, TapCharges
@@ -235,8 +235,9 @@ def _materialised(x: Float[Array, "*b n"]) -> Float[Array, "*b n"]:
 
 
 def _camera(params: Params, settings: FrameSettings, pattern: PixelPattern | None, smooth: Smooth | None,
-            shape: tuple[int, int], chain: Chain | None = None) -> PreparedCamera:
-    """The :class:`PreparedCamera` of ``params`` (``chain``: the frame's chain, if built)."""
+            shape: tuple[int, int], distortion: Array | None, chain: Chain | None = None) -> PreparedCamera:
+    """The :class:`PreparedCamera` of ``params`` (``distortion``: the lens', decided outside the
+    program, :func:`tofjax._framegeometry.lens_distortion`; ``chain``: the frame's chain, if built)."""
     pattern = _pattern(params, shape, pattern)
     chain = _frame_chain(params, smooth, math.prod(shape), pattern) if chain is None else chain
     scene, consts, pixel = params.scene, params.constants, params.pixel
@@ -247,7 +248,7 @@ def _camera(params: Params, settings: FrameSettings, pattern: PixelPattern | Non
     return PreparedCamera(chain, settings, pattern, active, background,
                           dark_electrons(pixel, t, consts, pattern.dark_slope_a_v_per_s),
                           dark_electrons(pixel, t, consts, pattern.dark_slope_b_v_per_s),
-                          pixel_directions(params.camera, shape))
+                          pixel_directions(params.camera, shape, distortion))
 
 
 def prepare_camera(params: Params, settings: FrameSettings, pattern: PixelPattern | None = None, *,
@@ -257,12 +258,13 @@ def prepare_camera(params: Params, settings: FrameSettings, pattern: PixelPatter
     (``sample``, ``noise_image``, ``predict``, ``prepare``, ``render``), each call costing only the
     scene's exposure and the chain after it (:meth:`tofjax.Camera.prepare`)."""
     _check_camera(params, settings, pattern)
-    return _prepare_camera(params, settings, pattern, smooth, frame_shape(params))
+    return _prepare_camera(params, settings, pattern, smooth, frame_shape(params), lens_distortion(settings))
 
 
 def frame_exposure(chain: Chain, settings: FrameSettings, returns: Returns, pattern: PixelPattern) -> Exposure:
     """Every pixel's :class:`Exposure` on the frame's ``chain`` (:meth:`PreparedCamera.expose`)."""
-    return _camera(chain.params, settings, pattern, None, returns.shape, chain).expose(returns)
+    return _camera(chain.params, settings, pattern, None, returns.shape, lens_distortion(settings), chain
+                   ).expose(returns)
 
 
 def frame_charges(chain: Chain, settings: FrameSettings, returns: Returns, pattern: PixelPattern) -> TapCharges:

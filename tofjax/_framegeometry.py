@@ -20,6 +20,7 @@ from jaxtyping import Array, Float
 
 from . import _jit
 from ._executor import programs
+from ._optics import lens
 from ._params import Params, _check, _float, _static
 from ._returns import Returns, direct_returns, two_bounce_returns
 from ._scene import (PixelField, Rays, SceneGeometry, _nonzero, pixel_field, pixel_rays, resolution, surface,
@@ -39,6 +40,11 @@ class FrameSettings(eqx.Module):
     baseline_m: Float[Array, "2"] = _float("frame", "baseline_m")
     relative_illumination_exponent: Float[Array, ""] = _float("frame", "relative_illumination_exponent")
     vignetting: Float[Array, ""] = _float("frame", "vignetting")
+    distortion_k1: Float[Array, ""] = _float("frame", "distortion_k1")
+    distortion_k2: Float[Array, ""] = _float("frame", "distortion_k2")
+    distortion_p1: Float[Array, ""] = _float("frame", "distortion_p1")
+    distortion_p2: Float[Array, ""] = _float("frame", "distortion_p2")
+    distortion_k3: Float[Array, ""] = _float("frame", "distortion_k3")
     prnu_sigma: Float[Array, ""] = _float("frame", "prnu_sigma")
     phase_offset_sigma_rad: Float[Array, ""] = _float("frame", "phase_offset_sigma_rad")
     tap_asymmetry_sigma: Float[Array, ""] = _float("frame", "tap_asymmetry_sigma")
@@ -51,10 +57,59 @@ class FrameSettings(eqx.Module):
     def __check_init__(self):
         _check(self, "frame")
 
+    @property
+    def distortion(self) -> Float[Array, "5"]:
+        """The lens distortion in OpenCV's order ``(k1, k2, p1, p2, k3)`` (:mod:`tofjax._distortion`)."""
+        return jnp.stack([self.distortion_k1, self.distortion_k2, self.distortion_p1, self.distortion_p2,
+                          self.distortion_k3])
+
 
 def frame_settings(values) -> FrameSettings:
     """The :class:`FrameSettings` of a configuration's ``[frame]`` values (a mapping)."""
     return FrameSettings(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in values.items()})
+
+
+def check_lens(params: Params, settings: FrameSettings) -> None:
+    """``ValueError`` unless the settings' lens distortion is one-to-one over the camera's array
+    (:func:`tofjax._distortion.check_one_to_one`; concrete values only)."""
+    from ._distortion import check_one_to_one
+    from ._schema import _is_tracer
+
+    k = (settings.distortion_k1, settings.distortion_k2, settings.distortion_p1, settings.distortion_p2,
+         settings.distortion_k3)
+    if any(_is_tracer(x) for x in k) or not any(float(x) for x in k):
+        return
+    cam = params.camera
+    f = float(lens(cam).focal_length_m)
+    half = (0.5 * float(cam.optical_area_m[0]) / f, 0.5 * float(cam.optical_area_m[1]) / f)
+    check_one_to_one(k, half, "frame.distortion_(k1, k2, p1, p2, k3)")
+
+
+#: What an intrinsics file's ``convention`` says (:func:`intrinsics`).
+INTRINSICS_CONVENTION = (
+    "OpenCV's pinhole model with Brown-Conrady distortion: a point (X, Y, Z) in OpenCV's camera frame (x right, "
+    "y down, z along the optical axis) has x = X/Z, y = Y/Z, r^2 = x^2 + y^2, R = 1 + k1 r^2 + k2 r^4 + k3 r^6, "
+    "x_d = x R + 2 p1 x y + p2 (r^2 + 2 x^2), y_d = y R + p1 (r^2 + 2 y^2) + 2 p2 x y, pixel (u, v) = "
+    "(fx x_d + cx, fy y_d + cy) with (0, 0) the centre of the top-left pixel, u along a row. dist_coeffs are "
+    "OpenCV's (k1, k2, p1, p2, k3). tofjax's points (frame.npz direction, points.ply) have y up: OpenCV's "
+    "(X, Y, Z) is tofjax's (x, -y, z). depth_mm.png holds Z, so undistort it (cv2.undistort) before a pinhole "
+    "back-projection (Open3D's PinholeCameraIntrinsic(width, height, fx, fy, cx, cy)).")
+
+
+def intrinsics(params: Params, settings: FrameSettings) -> dict:
+    """The frame camera's intrinsics in OpenCV's convention (:data:`INTRINSICS_CONVENTION`), as plain
+    numbers: ``width``, ``height`` (pixels), ``fx``, ``fy`` (the focal length in pixel pitches),
+    ``cx``, ``cy`` (the principal point: the array's centre), ``camera_matrix`` (3 x 3),
+    ``dist_coeffs`` (``frame.distortion_k1, k2, p1, p2, k3``), ``format`` and ``convention``. What
+    ``tofjax render`` writes as ``intrinsics.json`` and into ``frame.npz``. Concrete values only."""
+    rows, cols = frame_shape(params)
+    cam = params.camera
+    f = float(lens(cam).focal_length_m)
+    fx, fy = f / float(cam.pixel_pitch_m[0]), f / float(cam.pixel_pitch_m[1])
+    cx, cy = 0.5 * (cols - 1), 0.5 * (rows - 1)  # pixel centres at whole numbers (OpenCV); ours: _scene._grid
+    return {"format": "tofjax-intrinsics/1", "width": cols, "height": rows, "fx": fx, "fy": fy, "cx": cx, "cy": cy,
+            "camera_matrix": [[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]],
+            "dist_coeffs": [float(x) for x in settings.distortion], "convention": INTRINSICS_CONVENTION}
 
 
 def frame_shape(params: Params) -> tuple[int, int]:
@@ -67,11 +122,26 @@ def frame_rays(params: Params, settings: FrameSettings, subpixel_samples: int | 
     """The rays of every pixel of the camera (``subpixel_samples``: per axis, default the settings';
     ``shape``: (rows, cols), default the camera's, which needs concrete camera values)."""
     s = settings.subpixel_samples if subpixel_samples is None else subpixel_samples
-    return pixel_rays(params.camera, frame_shape(params) if shape is None else shape, s)
+    check_lens(params, settings)
+    return pixel_rays(params.camera, frame_shape(params) if shape is None else shape, s, lens_distortion(settings))
 
 
-def _rays_and_surface(params, settings, geometry, sun_direction, shape):
-    rays = frame_rays(params, settings, shape=shape)
+def lens_distortion(settings: FrameSettings) -> Float[Array, "5"] | None:
+    """The coefficients a program of rays takes (OpenCV's order): ``None`` when every one is concrete
+    and 0, so that the pinhole's program has no Newton steps at all (a ``lax.cond`` around them
+    still cost a ray cast 5 %: it writes its result to memory); the coefficients otherwise. The
+    entry points decide it outside their programs and pass it in."""
+    from ._schema import _is_tracer
+
+    k = (settings.distortion_k1, settings.distortion_k2, settings.distortion_p1, settings.distortion_p2,
+         settings.distortion_k3)
+    if not any(_is_tracer(x) for x in k) and not any(float(x) for x in k):
+        return None
+    return settings.distortion
+
+
+def _rays_and_surface(params, settings, geometry, sun_direction, shape, distortion):
+    rays = pixel_rays(params.camera, shape, settings.subpixel_samples, distortion)
     return rays, surface(geometry, rays, sun_direction)
 
 
@@ -84,8 +154,8 @@ def _returns_of(params, settings, geometry, surf, rays, bins):
 
 
 @_jit.jit
-def _scene_returns(params, settings, geometry, sun_direction, bins, shape):
-    rays, surf = _rays_and_surface(params, settings, geometry, sun_direction, shape)
+def _scene_returns(params, settings, geometry, sun_direction, bins, shape, distortion):
+    rays, surf = _rays_and_surface(params, settings, geometry, sun_direction, shape, distortion)
     return _returns_of(params, settings, geometry, surf, rays, bins)
 
 
@@ -114,14 +184,15 @@ def scene_returns(params: Params, settings: FrameSettings, geometry: SceneGeomet
             raise ValueError(f"sun_direction has shape {sun.shape}: allowed three numbers (dx, dy, dz)")
         _nonzero(sun, "sun_direction")
     shape = frame_shape(params)
+    args = (params, settings, geometry, sun, bins, shape, lens_distortion(settings))
     if len(geometry.primitives) > 1:
-        return programs(_scene_returns_in_two, _scene_returns, (params, settings, geometry, sun, bins, shape))
-    return _scene_returns(params, settings, geometry, sun, bins, shape)
+        return programs(_scene_returns_in_two, _scene_returns, args)
+    return _scene_returns(*args)
 
 
-def _scene_returns_in_two(params, settings, geometry, sun, bins, shape):
+def _scene_returns_in_two(params, settings, geometry, sun, bins, shape, distortion):
     """:func:`_scene_returns` as two programs: the rays and what they hit, then the returns."""
-    rays, surf = _rays_and_surface_jit(params, settings, geometry, sun, shape)
+    rays, surf = _rays_and_surface_jit(params, settings, geometry, sun, shape, distortion)
     return _returns_of_jit(params, settings, geometry, surf, rays, bins)
 
 
@@ -136,7 +207,8 @@ def depth_returns(params: Params, settings: FrameSettings, depth_m, reflectivity
     rho = jnp.asarray(checked_range(reflectivity, "reflectivity", 0.0, 1.0), dtype=float)
     if rho.shape not in ((), shape):
         raise ValueError(f"reflectivity has shape {rho.shape}: allowed a number or the camera's {shape}")
-    return _depth_returns(params, settings, check_depth(depth, "depth_m"), rho, radial, depth.shape)
+    return _depth_returns(params, settings, check_depth(depth, "depth_m"), rho, radial, depth.shape,
+                          lens_distortion(settings))
 
 
 #: A depth map's allowed depths, m; a non-finite or non-positive depth is a miss (no surface there).
@@ -152,8 +224,8 @@ def check_depth(depth, what: str):
 
 
 @_jit.jit
-def _depth_returns(params, settings, depth, reflectivity, radial, shape):
-    rays = frame_rays(params, settings, 1, shape)
+def _depth_returns(params, settings, depth, reflectivity, radial, shape, distortion):
+    rays = pixel_rays(params.camera, shape, 1, distortion)
     surf = surface_from_depth(depth, reflectivity, rays, radial)
     return direct_returns(params.illumination, settings.illumination_falloff_exponent, settings.baseline_m, surf, rays)
 

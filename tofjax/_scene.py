@@ -23,6 +23,7 @@ import inspect
 
 import equinox as eqx
 import jax.numpy as jnp
+from jax import lax
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
@@ -135,13 +136,41 @@ def _unit_rays(x: Array, y: Array, f: Array) -> Float[Array, "... 3"]:
     return jnp.stack([x * inv, y * inv, f * inv], axis=-1)
 
 
-def pixel_directions(camera: Optics, shape: tuple[int, int]) -> Float[Array, "rows cols 3"]:
+def _seen(x: Array, y: Array, f: Array, distortion: Array | None) -> tuple[Array, Array]:
+    """Where on an ideal (pinhole) array the point ``(x, y)`` of the real array looks, m: the point
+    itself without ``distortion`` (OpenCV's ``(k1, k2, p1, p2, k3)``), else its undistorted position
+    (:func:`tofjax._distortion.undistort`; OpenCV's y runs down, ours up). The Newton steps run only
+    when a coefficient is non-zero (``lax.cond``), and add exactly 0 when all are."""
+    if distortion is None:
+        return x, y
+    from ._distortion import undistort
+
+    x, y = jnp.broadcast_arrays(x, y)
+    xd, yd = x / f, -y / f
+
+    def offsets():
+        return undistort(xd, yd, distortion)
+
+    def none():
+        return jnp.zeros_like(xd), jnp.zeros_like(yd)
+
+    dx, dy = lax.cond(jnp.any(distortion != 0.0), offsets, none)
+    return x + f * dx, y - f * dy
+
+
+def pixel_directions(camera: Optics, shape: tuple[int, int], distortion: Array | None = None
+                     ) -> Float[Array, "rows cols 3"]:
     """Unit rays through the pixel centres, ``(rows, cols, 3)`` (:func:`pixel_rays`' ``centre``)."""
-    return _unit_rays(*_centres_m(camera, shape), lens(camera).focal_length_m)
+    f = lens(camera).focal_length_m
+    return _unit_rays(*_seen(*_centres_m(camera, shape), f, distortion), f)
 
 
-def pixel_rays(camera: Optics, shape: tuple[int, int], subpixel_samples: int = 1) -> Rays:
-    """The rays of a ``shape = (rows, cols)`` array with ``subpixel_samples`` rays per pixel and axis."""
+def pixel_rays(camera: Optics, shape: tuple[int, int], subpixel_samples: int = 1, distortion: Array | None = None
+               ) -> Rays:
+    """The rays of a ``shape = (rows, cols)`` array with ``subpixel_samples`` rays per pixel and axis,
+    through a lens with ``distortion`` (OpenCV's ``(k1, k2, p1, p2, k3)``; ``None``: a pinhole). Each
+    ray is the one the lens maps onto its point of the array. ``image_height`` stays where the pixel
+    lies on the array (the relative illumination is the image side's)."""
     rows, cols = shape
     f = lens(camera).focal_length_m
     px, py = camera.pixel_pitch_m[0], camera.pixel_pitch_m[1]
@@ -150,9 +179,9 @@ def pixel_rays(camera: Optics, shape: tuple[int, int], subpixel_samples: int = 1
     col, row = _grid(shape)
     xs = (col[None, :, None, None] + sub[None, None, None, :]) * px  # (1, cols, 1, s)
     ys = (row[:, None, None, None] - sub[None, None, :, None]) * py  # (rows, 1, s, 1)
-    samples = _unit_rays(xs, ys, f).reshape(rows, cols, s * s, 3)
+    samples = _unit_rays(*_seen(xs, ys, f, distortion), f).reshape(rows, cols, s * s, 3)
     x, y = _centres_m(camera, shape)
-    return Rays(_unit_rays(x, y, f), samples, _image_height(camera, shape, x, y))
+    return Rays(_unit_rays(*_seen(x, y, f, distortion), f), samples, _image_height(camera, shape, x, y))
 
 
 class Hit(eqx.Module):

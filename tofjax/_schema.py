@@ -263,6 +263,17 @@ KEYS: tuple[Key, ...] = (
     _k("frame", "vignetting", "float", 0.0, "1",
        "fraction of the light lost at the image corner by mechanical vignetting, growing with the squared "
        "image height (0 = none)", 0.0, 1.0, hi_open=True),
+    _k("frame", "distortion_k1", "float", 0.0, "1",
+       "lens distortion, radial r^2 coefficient (Brown-Conrady, OpenCV's k1: what cv2.calibrateCamera reports; "
+       "the rays, depth and points follow it, the intrinsics file carries it)", -100.0, 100.0),
+    _k("frame", "distortion_k2", "float", 0.0, "1", "lens distortion, radial r^4 coefficient (OpenCV's k2)",
+       -100.0, 100.0),
+    _k("frame", "distortion_p1", "float", 0.0, "1",
+       "lens distortion, tangential coefficient (OpenCV's p1; OpenCV's image y runs down)", -1.0, 1.0),
+    _k("frame", "distortion_p2", "float", 0.0, "1", "lens distortion, tangential coefficient (OpenCV's p2)",
+       -1.0, 1.0),
+    _k("frame", "distortion_k3", "float", 0.0, "1", "lens distortion, radial r^6 coefficient (OpenCV's k3)",
+       -100.0, 100.0),
     _k("frame", "prnu_sigma", "float", 0.01, "1",
        "photo-response non-uniformity: pixel-to-pixel relative sigma of the responsivity (log-normal, mean 1)",
        0.0, 0.5),

@@ -6,6 +6,7 @@ HTML report (``tofjax render``); :func:`save_returns` and :func:`load_returns` (
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -270,12 +271,28 @@ def write_report(directory, arrays: dict[str, np.ndarray], pngs: list[Path], tit
     return write_text(Path(directory) / "report.html", summary.html())
 
 
-def write_frame(directory, arrays: dict[str, np.ndarray], title: str, lines: list[str]) -> dict:
+def intrinsics_arrays(intrinsics: dict) -> dict[str, np.ndarray]:
+    """frame.npz's arrays of the camera's intrinsics (:func:`tofjax.optics.intrinsics`):
+    ``camera_matrix`` ``(3, 3)``, ``dist_coeffs`` ``(5,)`` (OpenCV's k1, k2, p1, p2, k3),
+    ``image_size`` ``(width, height)`` and ``intrinsics_convention``."""
+    return {"camera_matrix": np.asarray(intrinsics["camera_matrix"], dtype=float),
+            "dist_coeffs": np.asarray(intrinsics["dist_coeffs"], dtype=float),
+            "image_size": np.array([intrinsics["width"], intrinsics["height"]]),
+            "intrinsics_convention": np.array(intrinsics["convention"])}
+
+
+def write_frame(directory, arrays: dict[str, np.ndarray], title: str, lines: list[str],
+                intrinsics: dict | None = None) -> dict:
     """Everything ``tofjax render`` writes into ``directory``: ``frame.npz``, the PNG maps, the
     16-bit ``depth_mm.png`` (Z depth in millimetres) and ``amplitude.png`` (LSB), both 0 where a
-    pixel is not good, ``points.ply`` (the good pixels, with their intensity, grey by amplitude) and
-    ``report.html``. Returns ``{"pngs": [...], "points": n}``."""
+    pixel is not good, ``points.ply`` (the good pixels, with their intensity, grey by amplitude),
+    ``report.html`` and, given the camera's ``intrinsics`` (:func:`tofjax.optics.intrinsics`),
+    ``intrinsics.json`` (and the same numbers in ``frame.npz``, :func:`intrinsics_arrays`).
+    Returns ``{"pngs": [...], "points": n}``."""
     directory = Path(directory)
+    if intrinsics is not None:
+        arrays = {**arrays, **intrinsics_arrays(intrinsics)}
+        write_text(directory / "intrinsics.json", json.dumps(intrinsics, indent=2) + "\n")
     write_npz(directory / "frame.npz", arrays)
     pngs = write_maps(directory, arrays)
     keep = (arrays["flags"] == 0) & np.isfinite(arrays["radial_m"])

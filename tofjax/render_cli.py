@@ -297,10 +297,11 @@ def run(args) -> int:
                  f"Timing: scene {t1 - t0:.2f} s, frames {t2 - t1:.2f} s, analytic noise image {t3 - t2:.2f} s "
                  "(compilation included)."]
         with output_dir(args.out, "tofjax render", args) as folder:
-            written = frameio.write_frame(folder.staging, arrays, f"tofjax render: {name}", lines)
+            written = frameio.write_frame(folder.staging, arrays, f"tofjax render: {name}", lines,
+                                          tj.optics.intrinsics(params, settings))
     numbers = frameio.headlines(arrays)
     print(f"{rows} x {cols} pixels, {args.frames} frames in {t2 - t1:.2f} s; " + _summary(numbers)
           + f"; {written['points']} points")
-    print(f"wrote frame.npz, {len(written['pngs'])} PNGs, depth_mm.png and amplitude.png (16-bit), points.ply and "
-          f"report.html to {args.out}")
+    print(f"wrote frame.npz, {len(written['pngs'])} PNGs, depth_mm.png and amplitude.png (16-bit), points.ply, "
+          f"intrinsics.json and report.html to {args.out}")
     return 0
