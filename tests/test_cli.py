@@ -29,6 +29,7 @@ def test_simulate_writes_a_readable_sweep_file(capsys, tmp_path, method):
     assert main(args) == 0
     printed = capsys.readouterr().out
     assert "depth std [mm]" in printed and "unambiguity range 1.8662 m" in printed and str(out) in printed
+    assert "frame: 4 phase images of 2 ms" in printed and "eye safety (an estimate against IEC 60825-1" in printed
     data = sf.read_sweep(out)
     assert data.metadata["source"] == "simulation" and data.metadata["method"] == method
     assert data.n_rows == 6 and data.n_phases == 4 and data.modulation_frequency_hz == 80.32e6

@@ -40,7 +40,8 @@ def test_issue_sections_and_keys_exist():
                 "gain_error_percent_fsr", "integral_nonlinearity_lsb", "differential_nonlinearity_lsb"],
         "frame": ["subpixel_samples", "illumination_falloff_exponent", "baseline_m", "relative_illumination_exponent",
                   "vignetting", "prnu_sigma", "phase_offset_sigma_rad", "tap_asymmetry_sigma", "threshold_sigma",
-                  "seed"],
+                  "seed", "distortion_k1", "distortion_k2", "distortion_p1", "distortion_p2", "distortion_k3"],
+        "timing": ["readout_time_s", "frame_rate_hz"],
     }
     values = tj.Config().values
     assert set(values) == set(required)

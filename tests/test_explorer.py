@@ -215,6 +215,7 @@ def test_calculate_runs_the_sweep_with_busy_lamp_time_and_the_ticked_plots():
         assert [b.description for b in cell.children[1].children] == ["Save PNG", "Export CSV"]
     assert ex.time_label.value.startswith("simulation time ") and "12 samples" in ex.summary.value
     assert "at the nominal point" in ex.summary.value and ex.headlines["nominal_depth_std_m"] > 0
+    assert "eye safety (an estimate" in ex.summary.value  # the frame's timing and eye safety too
     assert not ex.calculate_button.disabled and ex.message.value == "" and not ex.stale
 
     ex.method.value = "analytic"

@@ -490,7 +490,7 @@ def test_render_command_writes_every_output(tmp_path, capsys):
                                 "--frames", "20", "--keep-frames", "2", "--fixed-pattern", "--raw", "--quiet",
                                 "--out", str(out))
     assert code == 0, stderr
-    assert "21 x 31 pixels, 20 frames" in stdout
+    assert "21 x 31 pixels, 20 frames" in stdout and "eye safety (an estimate" in stdout
     data = np.load(out / "frame.npz")
     assert data["frames_radial_m"].shape == (2, ROWS, COLS)
     # The raw phase images, decoded in NumPy with the formula of docs/model.md "Raw phase images"
@@ -537,7 +537,8 @@ def test_render_command_writes_every_output(tmp_path, capsys):
     documented = (Path(__file__).parents[1] / "docs" / "model.md").read_text()
     assert [key for key in data.files if f"`{key}`" not in documented] == []
     assert {"radial_m.png", "predicted_std_mm.png", "error_mm.png", "report.html"} <= {p.name for p in out.iterdir()}
-    assert "data:image/png;base64" in (out / "report.html").read_text()
+    report = (out / "report.html").read_text()
+    assert "data:image/png;base64" in report and "frame: 4 phase images of 2 ms" in report
 
 
 @pytest.mark.parametrize("args, message", [

@@ -19,7 +19,7 @@ def test_report_writes_csv_pngs_and_html(tmp_path, capsys, sweep):
     for name in plots.applicable(sweep):
         assert (out / f"{name}.png").stat().st_size > 1000
     for text in ("Headline figures", "SBI engages at", "relative depth noise reaches 1 %", "Dominant noise source",
-                 "[pixel]", "run time"):
+                 "[pixel]", "run time", "Frame timing and eye safety", "eye safety (an estimate against IEC"):
         assert text in html
 
 

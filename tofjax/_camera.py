@@ -131,6 +131,25 @@ class Camera(eqx.Module):
         raw=)`` and ``noise_image()`` then cost only the chain after the exposure."""
         return self.prepare().prepare(self.returns(scene))
 
+    @property
+    def timing(self):
+        """The frame's timing and the illumination's power over it (``tofjax._timing.FrameTiming``:
+        phase images, exposure, frame rate, lit fraction, peak / lit / average power), at the
+        parameters' integration time; ``[timing]`` configures it (docs/model.md, "Frame timing and
+        eye safety")."""
+        from ._timing import frame_timing
+
+        return frame_timing(self.params, max(len(self.frequencies_hz), 1))
+
+    @property
+    def eye_safety(self):
+        """An estimate of the illumination against IEC 60825-1:2014 class 1 (``tofjax._timing.EyeSafety``:
+        the accessible emissions through 7 mm at 100 mm against their limits, ``.ratio`` the largest;
+        an estimate, not a classification: docs/model.md, "Frame timing and eye safety")."""
+        from ._timing import eye_safety
+
+        return eye_safety(self.params, self.timing, self.settings.illumination_falloff_exponent)
+
     def _no_pattern(self, what: str) -> None:
         if self.pattern is not None:
             raise ValueError(f"{what} runs the mean pixel: this camera has a pattern (Camera.pattern), which it would "

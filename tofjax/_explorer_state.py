@@ -296,4 +296,11 @@ def summary(run, numbers: dict) -> Summary:
         f"Valid from: {at('valid_from_m', 'm')}; 1 % depth noise at: {at('relative_noise_1pct_at_m', 'm')}; "
         f"2 % at: {at('relative_noise_2pct_at_m', 'm')}; SBI engages at: {at('sbi_engages_at_lx', 'lx')}; "
         f"the pixel saturates at: {at('pixel_saturates_at_lx', 'lx')}")
+    from ._camera import Camera
+    from ._timing import summary_lines
+
+    try:
+        lines.extend(summary_lines(Camera.from_config(run.config)))  # the frame's timing and eye safety
+    except ValueError as err:  # a frame rate the phase images do not fit: said, not raised
+        lines.append(str(err))
     return Summary("explorer", lines)

@@ -228,6 +228,18 @@ class ADC(eqx.Module):
         return 2.0 * self.v_ref_v / 2.0**self.resolution_bits
 
 
+class Timing(eqx.Module):
+    """How a frame's phase images follow each other in time (the ``[timing]`` section; docs/model.md,
+    "Frame timing and eye safety"): each phase image's readout time and the frame rate (0: as fast
+    as they allow). :attr:`tofjax.Camera.timing` makes a frame's timing of them."""
+
+    readout_time_s: Scalar = _float("timing", "readout_time_s")
+    frame_rate_hz: Scalar = _float("timing", "frame_rate_hz")
+
+    def __check_init__(self):
+        _check(self, "timing")
+
+
 class Params(eqx.Module):
     """Every parameter of the camera model, as one pytree.
 
@@ -242,6 +254,7 @@ class Params(eqx.Module):
     illumination_waveform: IlluminationWaveform = eqx.field(default_factory=IlluminationWaveform)
     reference_waveform: ReferenceWaveform = eqx.field(default_factory=ReferenceWaveform)
     adc: ADC = eqx.field(default_factory=ADC)
+    timing: Timing = eqx.field(default_factory=Timing)
     constants: PhysicalConstants = eqx.field(default_factory=PhysicalConstants)
 
     def __check_init__(self):
@@ -262,4 +275,5 @@ SECTION_CLASSES: dict[str, type[eqx.Module]] = {
     "illumination_waveform": IlluminationWaveform,
     "reference_waveform": ReferenceWaveform,
     "adc": ADC,
+    "timing": Timing,
 }

@@ -79,7 +79,8 @@ PRESETS: dict[str, Preset] = {
         name="thesis",
         title="The thesis' verification camera (pmd 2-tap PMD sensor, 224 x 172 pixels; thesis §5.5, Table A.1)",
         references={"thesis": _THESIS},
-        values={},
+        values={"timing.frame_rate_hz": (5.0, "thesis Appendix A: the camera was configured to '5 Frames Per Second' "
+                                              "(4 phases, 2 ms exposure, 25 % illumination duty)")},
         section_sources={
             "illumination": "thesis Table 4.2",
             "scene": "thesis Table 4.3 (operating point of §5.5.1)",

@@ -249,6 +249,13 @@ KEYS: tuple[Key, ...] = (
        -1e4, 1e4),
     _k("adc", "differential_nonlinearity_lsb", "float", 0.8, "LSB",
        "peak step-width deviation (< 1: no missing codes)", 0.0, 1.0, hi_open=True),
+    # --- [timing]  how a frame's phase images follow each other (docs/model.md "Frame timing and eye safety")
+    _k("timing", "readout_time_s", "float", 1e-3, "s",
+       "readout time of one phase image: from the end of its integration to the start of the next one (a choice: "
+       "unknown for the thesis camera)", 0.0, 1.0),
+    _k("timing", "frame_rate_hz", "float", 5.0, "Hz",
+       "frames per second (the thesis camera ran at 5, Appendix A); 0 = as fast as the phase images and their "
+       "readout allow", 0.0, 1e4),
     # --- [frame]  the whole pixel array (thesis §6.1.1-6.1.2, future work; docs/model.md "Full frames")
     _k("frame", "subpixel_samples", "int", 3, "1",
        "rays per pixel along each axis (s x s sub-pixel samples): a pixel straddling a depth edge mixes both "

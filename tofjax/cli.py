@@ -203,9 +203,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _summary(result, elapsed_s: float, out: Path) -> str:
-    """What ``tofjax simulate`` prints: up to ten rows of the sweep, the run, the caveats
-    (:class:`tofjax.report.Summary` as text)."""
+def _summary(result, elapsed_s: float, out: Path, timing: list[str]) -> str:
+    """What ``tofjax simulate`` prints: up to ten rows of the sweep, the run, the caveats, the
+    frame's ``timing`` lines (:func:`tofjax._timing.summary_lines`) (:class:`tofjax.report.Summary`
+    as text)."""
     import numpy as np
 
     from .report import Section, Summary, Table
@@ -226,6 +227,7 @@ def _summary(result, elapsed_s: float, out: Path) -> str:
     method = f"Monte Carlo, {result.n_frames} frames/sample" if result.method == "mc" else "analytic"
     lines = [f"{len(values)} samples ({method}); unambiguity range {float(result.unambiguity_range_m):.4f} m; "
              f"{elapsed_s:.2f} s; wrote {out}"]
+    lines.extend(timing)
     lines.extend(f"note: {line}" for line in result.caveat_summary())
     du = float(result.unambiguity_range_m)
     spacing = float(np.max(np.abs(np.diff(dist)))) if len(dist) > 1 else 0.0
@@ -273,6 +275,10 @@ def _simulate(args) -> int:
     config = load_config(args.config) if args.config else Config()
     sweep = config.sweep(args.sweep, args.start, args.stop, args.samples)
     params = config.params
+    from ._camera import Camera
+    from ._timing import summary_lines
+
+    timing = summary_lines(Camera.from_config(config))  # refuses an impossible frame rate before any work
     iterations = args.iterations or config.iterations
     freqs = config.modulation_frequencies_hz
     problem = fixed_pattern_problem(config, args.method) if args.fixed_pattern else None
@@ -316,10 +322,10 @@ def _simulate(args) -> int:
 
                 if not args.quiet:
                     print("writing the report ...", file=sys.stderr, flush=True)
-                write_report(folder.staging, config, result, elapsed, out, multifrequency=multi)
+                write_report(folder.staging, config, result, elapsed, out, multifrequency=multi, timing=timing)
         except OSError as err:
             raise _UsageError(f"cannot write {out}: {err.strerror or err}") from None
-    print(_summary(result, elapsed, out))
+    print(_summary(result, elapsed, out, timing))
     if multi is not None:
         wrong = np.asarray(multi.wrong_unwrap_fraction)
         print(f"{len(freqs)} frequencies ({multi.fusion} fusion): extended range {float(multi.extended_range_m):.4f} m; "

@@ -252,6 +252,9 @@ def run(args) -> int:
         raise ValueError("render simulates one modulation frequency: illumination_waveform."
                          f"extra_modulation_frequencies_hz = {config.values['illumination_waveform']['extra_modulation_frequencies_hz']}"
                          " is not supported by render (remove it, or sweep the centre pixel with tofjax simulate)")
+    from ._timing import summary_lines
+
+    timing = summary_lines(tj.Camera.from_config(config))  # refuses an impossible frame rate before any work
     geometry = builder(**kwargs) if builder is not None else None
     npz_bytes = _check_size(name, geometry, settings, (rows, cols))
     most = max_keep_frames(rows * cols, params.pixel.n_phases, args.raw)
@@ -295,13 +298,14 @@ def run(args) -> int:
                  f"{args.frames} Monte Carlo frames (seed {args.seed}); fixed pattern: "
                  f"{'drawn from frame.seed = ' + str(settings.seed) if args.fixed_pattern else 'off (the mean pixel)'}.",
                  f"Timing: scene {t1 - t0:.2f} s, frames {t2 - t1:.2f} s, analytic noise image {t3 - t2:.2f} s "
-                 "(compilation included)."]
+                 "(compilation included).", *timing]
         with output_dir(args.out, "tofjax render", args) as folder:
             written = frameio.write_frame(folder.staging, arrays, f"tofjax render: {name}", lines,
                                           tj.optics.intrinsics(params, settings))
     numbers = frameio.headlines(arrays)
     print(f"{rows} x {cols} pixels, {args.frames} frames in {t2 - t1:.2f} s; " + _summary(numbers)
           + f"; {written['points']} points")
+    print("\n".join(timing))
     print(f"wrote frame.npz, {len(written['pngs'])} PNGs, depth_mm.png and amplitude.png (16-bit), points.ply, "
           f"intrinsics.json and report.html to {args.out}")
     return 0

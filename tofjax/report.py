@@ -236,8 +236,10 @@ def _fmt(value, unit="", scale=1.0, digits=4):
     return "not reached" if value is None else f"{value * scale:.{digits}g} {unit}".strip()
 
 
-def write_report(directory, config, result, elapsed_s: float, csv_path, multifrequency=None) -> Path:
-    """Write the PNGs and ``report.html`` into ``directory``; returns the HTML path."""
+def write_report(directory, config, result, elapsed_s: float, csv_path, multifrequency=None,
+                 timing: list[str] = ()) -> Path:
+    """Write the PNGs and ``report.html`` into ``directory``; returns the HTML path. ``timing``: the
+    frame's timing and eye-safety lines (:func:`tofjax._timing.summary_lines`)."""
     from . import plots
     from ._estimate import cw_depth_noise, pulsed_depth_noise
     from ._sweep import Sweep
@@ -288,6 +290,7 @@ def write_report(directory, config, result, elapsed_s: float, csv_path, multifre
     summary = Summary(f"tofjax simulation report: {result.sweep_variable} sweep", [f"Data: {csv_path}"], [
         Section("Headline figures", [Table(("figure", "value"), tuple(rows)),
                                      "Dominant noise source along the sweep (photon transfer curve):", regions]),
+        Section("Frame timing and eye safety", list(timing)),
         Section("Figures", list(figures)),
         Section("Configuration", [Code(config.to_toml())]),
     ])
