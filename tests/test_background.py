@@ -81,3 +81,75 @@ def test_fluorescent_has_no_near_infrared():
     assert float(bg.background_photon_irradiance("fluorescent", 1e4, 850e-9, 20e-9, CONSTS)) == 0.0
     # but halogen does: a lamp of the same illuminance puts far more light into the NIR band.
     assert float(bg.background_photon_irradiance("halogen", 1e4, 850e-9, 20e-9, CONSTS)) > 0.0
+
+
+# --- The sensor's spectral response (pixel.collection_depth_m; docs/model.md "Background light")
+
+def _alpha_per_m(x_m):
+    """Silicon's absorption coefficient from the shipped table, read here: 4 pi k / lambda,
+    log-interpolated between its points."""
+    wl, k = _table("silicon_green2008.csv")
+    return np.exp(np.interp(x_m, wl, np.log(4 * np.pi * k / wl)))
+
+
+def test_a_depth_of_zero_is_the_flat_response_exactly_and_a_deep_diode_approaches_it():
+    import jax
+
+    for lamp in LAMPS:
+        flat = bg.background_photon_irradiance(lamp, 1000.0, 850e-9, 0.0, CONSTS)
+        assert float(bg.background_photon_irradiance(lamp, 1000.0, 850e-9, 0.0, CONSTS, 0.0)) == float(flat)
+        deep = bg.background_photon_irradiance(lamp, 1000.0, 850e-9, 0.0, CONSTS, 1.0)  # 1 m absorbs every photon
+        assert float(deep) == pytest.approx(float(flat), rel=1e-6)
+    # Traced (a fitted or differentiated depth), 0 is still the flat response, to the bit.
+    traced = jax.jit(lambda d: bg.background_photon_irradiance("halogen", 1000.0, 850e-9, 0.0, CONSTS, d))
+    plain = jax.jit(lambda: bg.background_photon_irradiance("halogen", 1000.0, 850e-9, 0.0, CONSTS))
+    assert float(traced(0.0)) == float(plain())
+
+
+def test_the_response_weights_the_photons_as_an_independent_integral_does():
+    """Halogen (Planck, 3200 K) through a +-50 nm filter at 950 nm, a 5 um photodiode: tofjax's
+    in-band photons over the flat response's against the same ratio integrated here,
+    int P(l) l q(l) dl / int P(l) l dl with q = (1 - exp(-a d)) / (1 - exp(-a(950 nm) d)), to 1e-4."""
+    x = np.linspace(900e-9, 1000e-9, 20001)
+    planck = x**-5 / np.expm1(C.PLANCK_J_S * C.SPEED_OF_LIGHT_M_PER_S / (C.BOLTZMANN_J_PER_K * x * 3200.0))
+    q = -np.expm1(-_alpha_per_m(x) * 5e-6) / -np.expm1(-_alpha_per_m(950e-9) * 5e-6)
+    expected = np.trapezoid(planck * x * q, x) / np.trapezoid(planck * x, x)
+    got = (bg.background_photon_irradiance("halogen", 1.0, 950e-9, 50e-9, CONSTS, 5e-6)
+           / bg.background_photon_irradiance("halogen", 1.0, 950e-9, 50e-9, CONSTS))
+    assert float(got) == pytest.approx(expected, rel=1e-4)
+    assert abs(expected - 1.0) > 0.03  # the response matters across the band (q from 1.87 at 900 nm to 0.42 at 1000)
+
+
+def test_a_thin_photodiode_responds_as_the_absorption_coefficient():
+    """d -> 0: q(lambda) -> alpha(lambda) / alpha(lambda_0), here at the table's own points."""
+    wl, k = _table("silicon_green2008.csv")
+    at = wl[(wl > 400e-9) & (wl < 1100e-9)]
+    q = np.asarray(bg.relative_response(at, 850e-9, 1e-14))  # alpha d < 1e-6 everywhere
+    np.testing.assert_allclose(q, np.interp(at, wl, k / wl) / np.interp(850e-9, wl, k / wl), rtol=1e-6)
+
+
+def test_the_background_electrons_follow_the_response_through_the_chain_with_a_gradient():
+    """predict's background electrons scale by the in-band photons' ratio; d(depth noise)/d(depth)
+    against a central difference."""
+    import equinox as eqx
+    import jax
+
+    import dataclasses
+
+    halogen = dataclasses.replace(tofjax.Params(), scene=dataclasses.replace(tofjax.Params().scene, background="halogen"))
+
+    def params(depth):
+        return eqx.tree_at(lambda q: q.pixel.collection_depth_m, halogen, depth)
+
+    sweep = tofjax.Sweep("illuminance", [1000.0])
+    ratio = (bg.background_photon_irradiance("halogen", 1.0, 850e-9, 0.0, CONSTS, 20e-6)
+             / bg.background_photon_irradiance("halogen", 1.0, 850e-9, 0.0, CONSTS))
+    deep, flat = (tofjax.predict(params(d), sweep).noise.background_e for d in (20e-6, 0.0))
+    np.testing.assert_allclose(deep, ratio * flat, rtol=1e-12)
+
+    def noise(depth):
+        return tofjax.predict(params(depth), sweep).depth_std_m[0]
+
+    h = 1e-8
+    fd = (noise(20e-6 + h) - noise(20e-6 - h)) / (2 * h)
+    np.testing.assert_allclose(jax.grad(noise)(20e-6), fd, rtol=1e-5)

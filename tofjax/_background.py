@@ -20,6 +20,17 @@ Spectra (files in ``tofjax/data`` with their provenance):
 
 A mixture of sources (``scene.extra_backgrounds``) adds the photon irradiances of the sources,
 each normalised to its own illuminance (:func:`tofjax._mixer.expose`).
+
+**The sensor's spectral response** (``pixel.collection_depth_m``; docs/model.md, "Background
+light"). The quantum efficiency is known at the illumination's wavelength (from the responsivity);
+elsewhere a photon counts with the relative response of a silicon photodiode that collects what is
+absorbed within the depth d,
+
+    q(lambda) = (1 - exp(-alpha(lambda) d)) / (1 - exp(-alpha(lambda_0) d)),
+
+alpha the absorption coefficient of crystalline silicon at 300 K (M. A. Green, Sol. Energy Mater.
+Sol. Cells 92, 1305 (2008), ``data/silicon_green2008.csv``). d = 0 is the thesis' flat response
+(q = 1 up to the cut-off), which an infinitely deep photodiode approaches.
 """
 
 from __future__ import annotations
@@ -82,6 +93,8 @@ def photopic_v() -> tuple[np.ndarray, np.ndarray]:
     return _GRID_M, _on_grid(*_read_table("cie_1924_photopic_v.csv"))
 
 
+#: The grid's points up to the first beyond silicon's cut-off (the detected part of every spectrum).
+_DETECTED = int(np.searchsorted(_GRID_M, const.SILICON_CUTOFF_M)) + 1
 #: Tabulated wavelengths whose log-linear fit continues a table beyond its last value.
 _TAIL_FIT_M = 40e-9
 
@@ -102,14 +115,36 @@ def _cumtrapz(y: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 @functools.cache
-def _tables(background: str) -> tuple[float, np.ndarray, np.ndarray]:
-    """(int V E dlambda, cumulative int E lambda dlambda, cumulative int E dlambda), the last two
-    cut at the silicon band gap, for the normalised-later spectrum E."""
+def _tables(background: str) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+    """(int V E dlambda, cumulative int E lambda dlambda, cumulative int E dlambda, E lambda), the last
+    three cut at the silicon band gap, for the normalised-later spectrum E."""
     grid, e = spectrum(background)
     _, v = photopic_v()
     luminous = float(np.trapezoid(v * e, grid))
     detected = np.where(grid <= const.SILICON_CUTOFF_M, e, 0.0)
-    return luminous, _cumtrapz(detected * grid, grid), _cumtrapz(detected, grid)
+    return luminous, _cumtrapz(detected * grid, grid), _cumtrapz(detected, grid), detected * grid
+
+
+@functools.cache
+def silicon_absorption_per_m() -> tuple[np.ndarray, np.ndarray]:
+    """Crystalline silicon's absorption coefficient at 300 K, alpha = 4 pi k / lambda (1/m), on its
+    table's wavelengths (m; Green 2008, module docstring)."""
+    wavelength_m, k = _read_table("silicon_green2008.csv")
+    return wavelength_m, 4.0 * np.pi * k / wavelength_m
+
+
+def relative_response(wavelength_m: Float[Array, "*w"], reference_m: Float[Array, ""], depth_m: Float[Array, ""]
+                      ) -> Float[Array, "*w"]:
+    """q(lambda) of a silicon photodiode of collection depth ``depth_m`` > 0, 1 at ``reference_m``
+    (module docstring); alpha interpolated in log between the table's points, 0 beyond it."""
+    table_m, alpha = silicon_absorption_per_m()
+    log_alpha = jnp.asarray(np.log(alpha))
+
+    def absorbed(x):
+        a = jnp.where((x >= table_m[0]) & (x <= table_m[-1]), jnp.exp(jnp.interp(x, table_m, log_alpha)), 0.0)
+        return -jnp.expm1(-a * depth_m)
+
+    return absorbed(wavelength_m) / absorbed(reference_m)
 
 
 def _band(wavelength_m: Array, filter_half_width_m: Array) -> tuple[Array, Array]:
@@ -125,18 +160,31 @@ def background_photon_irradiance(
     wavelength_m: Float[Array, ""],
     filter_half_width_m: Float[Array, ""],
     constants: PhysicalConstants,
+    collection_depth_m: Float[Array, ""] = 0.0,
 ) -> Float[Array, "*b"]:
-    """Detectable in-band background photon irradiance on the target, photons / (s m^2).
+    """Detectable in-band background photon irradiance on the target, photons / (s m^2), each photon
+    weighted by the sensor's relative spectral response (1 at the illumination's wavelength).
 
     **Arguments:**
     - ``background``: lamp name (sunlight, halogen, incandescent, fluorescent, led).
     - ``illuminance_lx``: illuminance on the target, lx.
     - ``wavelength_m``, ``filter_half_width_m``: the band-pass filter (half width 0 = no filter).
     - ``constants``: physical constants (K_m, h, c).
+    - ``collection_depth_m``: the silicon photodiode's collection depth (``pixel.collection_depth_m``,
+      module docstring); 0: a flat response, the thesis'.
     """
-    luminous, cum_photon, _ = _tables(background)
+    luminous, cum_photon, _, density = _tables(background)
     lo, hi = _band(wavelength_m, filter_half_width_m)
-    in_band = jnp.interp(hi, _GRID_M, cum_photon) - jnp.interp(lo, _GRID_M, cum_photon)
+    flat = jnp.interp(hi, _GRID_M, cum_photon) - jnp.interp(lo, _GRID_M, cum_photon)
+    in_band = flat
+    if not (isinstance(collection_depth_m, (int, float)) and collection_depth_m == 0.0):
+        deep = collection_depth_m > 0.0  # 0 (even traced) is the flat response, exactly
+        grid = _GRID_M[: _DETECTED]  # nothing is detected beyond the cut-off: a quarter of the grid
+        weights = relative_response(jnp.asarray(grid), wavelength_m, jnp.where(deep, collection_depth_m, 1.0))
+        y = density[: _DETECTED] * weights
+        cum = jnp.concatenate([jnp.zeros(1), jnp.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(grid))])
+        in_band = jnp.where(deep, jnp.interp(hi, grid, cum, right=cum[-1]) - jnp.interp(lo, grid, cum, right=cum[-1]),
+                            flat)
     scale = illuminance_lx / (constants.luminous_efficacy_lm_per_w * luminous)  # Eq 3.4
     return scale * in_band / (constants.planck_j_s * constants.speed_of_light_m_per_s)
 
@@ -149,7 +197,7 @@ def background_irradiance_w_per_m2(
     constants: PhysicalConstants,
 ) -> Float[Array, "*b"]:
     """Detectable in-band background irradiance on the target, W/m^2 (E_eBackground, Eq 3.4)."""
-    luminous, _, cum_power = _tables(background)
+    luminous, _, cum_power, _ = _tables(background)
     lo, hi = _band(wavelength_m, filter_half_width_m)
     in_band = jnp.interp(hi, _GRID_M, cum_power) - jnp.interp(lo, _GRID_M, cum_power)
     return illuminance_lx / (constants.luminous_efficacy_lm_per_w * luminous) * in_band

@@ -139,6 +139,7 @@ class Pixel(eqx.Module):
     """
 
     photo_responsivity_a_per_w: Scalar = _float("pixel", "photo_responsivity_a_per_w")
+    collection_depth_m: Scalar = _float("pixel", "collection_depth_m")
     demodulation_contrast: Scalar = _float("pixel", "demodulation_contrast")
     c_diode_f: Scalar = _float("pixel", "c_diode_f")
     c_sample_and_hold_f: Scalar = _float("pixel", "c_sample_and_hold_f")

@@ -25,11 +25,12 @@ def scene_photon_irradiance(params: Params, illuminance_lx: Float[Array, "*b"]) 
     """Background photon irradiance on the target inside the filter's band, photons/s/m^2: the swept
     lamp at ``illuminance_lx`` plus the extra sources at theirs (a mixture: photon irradiances add)."""
     scene, ill, consts = params.scene, params.illumination, params.constants
+    depth = params.pixel.collection_depth_m
     photon_irr = background_photon_irradiance(scene.background, illuminance_lx, ill.wavelength_m,
-                                              scene.filter_half_width_m, consts)
+                                              scene.filter_half_width_m, consts, depth)
     for k, lamp in enumerate(scene.extra_backgrounds):
         photon_irr = photon_irr + background_photon_irradiance(lamp, scene.extra_illuminances_lx[k], ill.wavelength_m,
-                                                               scene.filter_half_width_m, consts)
+                                                               scene.filter_half_width_m, consts, depth)
     return photon_irr
 
 

@@ -187,6 +187,10 @@ KEYS: tuple[Key, ...] = (
     # --- [pixel]  thesis Table 4.5
     _k("pixel", "photo_responsivity_a_per_w", "float", 0.23, "A/W",
        "spectral responsivity at wavelength_m (quantum efficiency must stay <= 1)", 0.0, 1.0, lo_open=True),
+    _k("pixel", "collection_depth_m", "float", 0.0, "m",
+       "the photodiode's collection depth: the background light's photons count with silicon's relative spectral "
+       "response for it (absorption of Green 2008), 1 at wavelength_m; 0 = a flat response, the thesis'",
+       0.0, 1e-3),
     _k("pixel", "demodulation_contrast", "float", 0.42, "1",
        "fraction of photo-electrons sorted by phase; the rest go equally to both taps", 0.0, 1.0, lo_open=True),
     _k("pixel", "c_diode_f", "float", 7e-15, "F", "photodiode capacitance of one tap", 0.0, 1e-12, lo_open=True),
