@@ -244,6 +244,35 @@ def test_sigkill_at_any_moment_leaves_the_previous_output_or_the_complete_new_on
             assert now == previous
 
 
+def test_a_ctrl_c_inside_a_garbage_collector_callback_is_raised_just_after_it():
+    """Python prints and drops an exception raised inside a gc callback (JAX registers one): the
+    handler signals again instead, and that second signal, outside the callback, raises. It once
+    printed "Exception ignored in: <function _xla_gc_callback ...>" with a traceback before the one
+    line of a Ctrl-C."""
+    import gc
+
+    from tofjax import cli, progress
+
+    seen = []
+
+    def callback(phase, info):
+        if phase == "start" and not seen:
+            seen.append(cli._in_callback(sys._getframe()))
+            cli._sigint(signal.SIGINT, sys._getframe())  # must not raise here
+
+    previous = signal.signal(signal.SIGINT, cli._sigint)
+    gc.callbacks.append(callback)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            gc.collect()
+            time.sleep(5.0)  # the handler's second SIGINT arrives in 20 ms and raises here
+    finally:
+        gc.callbacks.remove(callback)
+        signal.signal(signal.SIGINT, previous)
+        progress.clear_interrupt()
+    assert seen == [True] and not cli._in_callback(sys._getframe())
+
+
 def test_ctrl_c_is_one_line_and_exit_status_130(tmp_path):
     # simulate: long enough never to end by itself; interrupted while it computes.
     proc = _tofjax("simulate", "--sweep", "distance", "--samples", "200", "--iterations", "10000000", "--quiet",

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import math
+import os
 import signal
 import sys
 import threading
@@ -352,8 +353,28 @@ def _sigint(signum, frame):
     from .progress import interrupt, interrupt_now
 
     interrupt()
-    if interrupt_now():  # else held_interrupt raises it when its step is done
-        raise KeyboardInterrupt
+    if not interrupt_now():  # held_interrupt raises it when its step is done
+        return
+    if _in_callback(frame):
+        # Python prints an exception raised inside a garbage-collector callback or a finaliser
+        # ("Exception ignored in ...", with a traceback) and drops it: signal again in a moment,
+        # when the run is past it (the run's own checks between chunks see the flag meanwhile).
+        threading.Timer(0.02, os.kill, (os.getpid(), signal.SIGINT)).start()
+        return
+    raise KeyboardInterrupt
+
+
+def _in_callback(frame) -> bool:
+    """Whether ``frame`` runs inside a garbage-collector callback (JAX registers one) or a ``__del__``,
+    where an exception is printed and dropped instead of raised."""
+    import gc
+
+    callbacks = {getattr(cb, "__code__", None) for cb in gc.callbacks}
+    while frame is not None:
+        if frame.f_code in callbacks or frame.f_code.co_name == "__del__":
+            return True
+        frame = frame.f_back
+    return False
 
 
 def main(argv: list[str] | None = None) -> int:
