@@ -353,28 +353,40 @@ def _sigint(signum, frame):
     from .progress import interrupt, interrupt_now
 
     interrupt()
-    if not interrupt_now():  # held_interrupt raises it when its step is done
-        return
-    if _in_callback(frame):
-        # Python prints an exception raised inside a garbage-collector callback or a finaliser
-        # ("Exception ignored in ...", with a traceback) and drops it: signal again in a moment,
-        # when the run is past it (the run's own checks between chunks see the flag meanwhile).
+    if interrupt_now():  # else held_interrupt raises it when its step is done
+        raise KeyboardInterrupt
+
+
+def _unraisable(unraisable) -> None:
+    """``sys.unraisablehook`` while a command runs: a Ctrl-C whose ``KeyboardInterrupt`` was raised where
+    Python cannot raise it (a garbage-collector callback, JAX registers one; a weakref callback; a
+    finaliser) is dropped there, printed as "Exception ignored in ..." with a traceback. Instead,
+    nothing is printed and the interrupt is signalled again 20 ms later, when the run is past it
+    (its own checks between chunks see the flag meanwhile). Anything else goes to the previous hook."""
+    if isinstance(unraisable.exc_value, KeyboardInterrupt):
         threading.Timer(0.02, os.kill, (os.getpid(), signal.SIGINT)).start()
         return
-    raise KeyboardInterrupt
+    _previous_unraisable_hook(unraisable)
 
 
-def _in_callback(frame) -> bool:
-    """Whether ``frame`` runs inside a garbage-collector callback (JAX registers one) or a ``__del__``,
-    where an exception is printed and dropped instead of raised."""
-    import gc
+_previous_unraisable_hook = sys.unraisablehook
 
-    callbacks = {getattr(cb, "__code__", None) for cb in gc.callbacks}
-    while frame is not None:
-        if frame.f_code in callbacks or frame.f_code.co_name == "__del__":
-            return True
-        frame = frame.f_back
-    return False
+
+@contextlib.contextmanager
+def interrupts():
+    """Ctrl-C as a command takes it (on the main thread): :func:`_sigint` as the SIGINT handler and
+    :func:`_unraisable` as ``sys.unraisablehook``, both restored afterwards."""
+    global _previous_unraisable_hook
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous, _previous_unraisable_hook = signal.signal(signal.SIGINT, _sigint), sys.unraisablehook
+    sys.unraisablehook = _unraisable
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        sys.unraisablehook = _previous_unraisable_hook
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -385,9 +397,8 @@ def main(argv: list[str] | None = None) -> int:
     from .sweepfile import SweepFileError
 
     clear_interrupt()
-    previous = None
-    if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGINT, _sigint)
+    stack = contextlib.ExitStack()
+    stack.enter_context(interrupts())
     try:
         if getattr(args, "run", None) is not None:  # calibrate, record, ...: they compute, so cache
             enable_compilation_cache(fast_compile=args.command == "calibrate")
@@ -419,8 +430,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"tofjax: error: {err}", file=sys.stderr)
         return 2
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGINT, previous)
+        stack.close()
 
 
 def entry_point() -> None:  # pragma: no cover - thin wrapper for the console script
