@@ -31,6 +31,7 @@ import numpy as np
 from jaxtyping import PRNGKeyArray
 
 from ._framegeometry import FrameSettings, check_lens, depth_returns, scene_returns
+from ._motion import MovingScene, moving_depth_returns, moving_returns, per_phase_returns
 from ._params import Params
 from ._pattern import PixelPattern
 from ._returns import Returns
@@ -96,21 +97,38 @@ class Camera(eqx.Module):
         """Whether the camera fuses several modulation frequencies."""
         return len(self.frequencies_hz) > 1
 
-    def returns(self, scene, *, reflectivity=0.9, radial: bool = False, sun_direction=None, bins: int = 32) -> Returns:
+    def returns(self, scene, *, reflectivity=0.9, radial: bool = False, sun_direction=None, bins: int = 32,
+                velocity_m_per_s=None, substeps: int = 4) -> Returns:
         """A frame scene's :class:`tofjax.Returns`, every pixel's returns: as given; ray-cast from a
         :class:`tofjax.scenes.SceneGeometry` (the direct return of each sub-pixel ray and, for a
         scene with patches, its two-bounce light in ``bins`` returns; ``sun_direction``: the
         background light's direction); or a depth map's, ``(rows, cols)`` Z depth in metres (the
         radial distance with ``radial=True``) with a ``reflectivity`` map or number, one ray per
-        pixel. Once per scene: the verbs call it for a scene that is not yet :class:`Returns`."""
+        pixel. A scene moving during the frame (:func:`tofjax.scenes.moving`), or a list of one
+        :class:`Returns` per phase image (a renderer's), gives every phase image's own returns
+        (:mod:`tofjax._motion`); so does a depth map with ``velocity_m_per_s`` (a number or a map: how
+        fast each pixel's depth grows, in the map's own convention, Z or radial) over ``substeps``
+        instants per phase image. Once per scene: the verbs call it for a scene that is not yet
+        :class:`Returns`."""
         if isinstance(scene, Returns):
             return scene
+        if isinstance(scene, MovingScene):
+            return moving_returns(self, scene, sun_direction=sun_direction, bins=bins)
+        if isinstance(scene, list | tuple):
+            n = self.params.pixel.n_phases
+            if len(scene) != n:
+                raise ValueError(f"a scene given per phase image has {len(scene)} tofjax.Returns: the camera has {n} "
+                                 "phase images (pixel.n_phases), one Returns each")
+            return per_phase_returns(scene)
         if isinstance(scene, SceneGeometry):
             return scene_returns(self.params, self.settings, scene, sun_direction=sun_direction, bins=bins)
         if isinstance(scene, jax.Array | np.ndarray):
+            if velocity_m_per_s is not None:
+                return moving_depth_returns(self, scene, reflectivity, radial, velocity_m_per_s, substeps)
             return depth_returns(self.params, self.settings, scene, reflectivity, radial=radial)
-        raise TypeError(f"scene must be a tofjax.Sweep, tofjax.Returns, a tofjax.scenes.SceneGeometry or a depth map "
-                        f"(an array of the frame's shape), got {type(scene).__name__}")
+        raise TypeError(f"scene must be a tofjax.Sweep, tofjax.Returns, a tofjax.scenes.SceneGeometry, a moving one "
+                        "(tofjax.scenes.moving), one tofjax.Returns per phase image (a list) or a depth map (an array "
+                        f"of the frame's shape), got {type(scene).__name__}")
 
     def prepare(self):
         """The camera prepared for frames once: its frame chain, each pixel's conversion of radiance

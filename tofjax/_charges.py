@@ -75,11 +75,16 @@ class Exposure(eqx.Module):
 
     def charges(self) -> TapCharges:
         """The taps' expected electrons: K N a_j plus half of (1 - K) N and of the background to
-        tap A, the rest of K N plus the same halves to tap B (Eqs 3.19-3.21), scaled by 1 +- e."""
+        tap A, the rest of K N plus the same halves to tap B (Eqs 3.19-3.21), scaled by 1 +- e. A
+        moving scene's ``signal_e`` has a phase axis (each phase image its own light); its charges'
+        ``signal_e`` is then the mean over the phase images."""
         m = self.modulated_e
-        equal = (0.5 * (1.0 - self.contrast) * self.signal_e + 0.5 * self.background_e)[..., None]
+        per_phase = jnp.ndim(self.signal_e) == m.ndim
+        signal = self.signal_e if per_phase else self.signal_e[..., None]
+        equal = 0.5 * (1.0 - self.contrast) * signal + 0.5 * self.background_e[..., None]
         e = jnp.asarray(self.tap_asymmetry)
         e = e if e.ndim == 0 else e[..., None]  # one for every pixel, or each pixel's own
         photo_a = (m + equal) * (1.0 + e)
-        photo_b = (self.contrast * self.signal_e[..., None] - m + equal) * (1.0 - e)
-        return TapCharges(photo_a, photo_b, self.dark_a_e, self.dark_b_e, self.signal_e, self.background_e)
+        photo_b = (self.contrast * signal - m + equal) * (1.0 - e)
+        mean_signal = jnp.mean(self.signal_e, axis=-1) if per_phase else self.signal_e
+        return TapCharges(photo_a, photo_b, self.dark_a_e, self.dark_b_e, mean_signal, self.background_e)

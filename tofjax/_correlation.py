@@ -76,9 +76,11 @@ class Correlation(eqx.Module):
         return _lookup(self.table, delay_periods)
 
     def weighted_sum(self, weights: Float[Array, "*b k"], path: Float[Array, "*b k"], periods_per_path: Float[Array, ""],
-                     offset_periods: Float[Array, "*b"] | float = 0.0) -> Float[Array, "*b phases"]:
+                     offset_periods: Float[Array, "*b"] | float = 0.0, mask=None) -> Float[Array, "*b phases"]:
         """sum_r weights_r a_j(delay_r) over the last axis, delay_r = path_r x ``periods_per_path`` +
-        ``offset_periods`` (several returns of one pixel add as phasors).
+        ``offset_periods`` (several returns of one pixel add as phasors); ``mask`` (NumPy, ``(k,
+        phases)``): each return counted only in the phase images where it is 1 (a moving scene's,
+        :meth:`tofjax.Returns.phase_mask`).
 
         Up to :data:`UNROLLED_RETURNS` returns, every return's table cell and position inside it are
         found first (one pass over the returns), then the sum is written return by return, one row
@@ -90,9 +92,13 @@ class Correlation(eqx.Module):
         k = path.shape[-1]
         delay = path * periods_per_path + jnp.asarray(offset_periods)[..., None]
         if self.table is None or k > UNROLLED_RETURNS:
+            if mask is not None:
+                return jnp.einsum("...k,kp,...kp->...p", weights, jnp.asarray(mask), self(delay))
             return jnp.einsum("...k,...kp->...p", weights, self(delay))
         cell, u = _cells(self.table.shape[0], delay)
         terms = [weights[..., r, None] * _cubic(self.table, cell[..., r], u[..., r]) for r in range(k)]
+        if mask is not None:  # each return only in its phase images (a row of 0/1, explicitly broadcast)
+            terms = [t * jnp.asarray(mask[r]).reshape((1,) * (t.ndim - 1) + (-1,)) for r, t in enumerate(terms)]
         return functools.reduce(jnp.add, terms)
 
 

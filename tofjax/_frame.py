@@ -164,10 +164,12 @@ class PreparedCamera(eqx.Module):
         params = self.chain.params
         per_return = returns.radiance_per_w * self.active_e_per_radiance[..., None]  # (rows, cols, k)
         periods_per_m = params.illumination_waveform.modulation_frequency_hz / params.constants.speed_of_light_m_per_s
+        mask = returns.phase_mask(self.chain.n_phases)  # a moving scene: each return lights its own phase images
         modulated = params.pixel.demodulation_contrast * self.chain.correlation.weighted_sum(
-            per_return, returns.path_m, periods_per_m, self.pattern.phase_offset_rad / (2.0 * jnp.pi))
-        return (modulated, sum_by_slices(per_return, -1, UNROLLED_RETURNS),
-                returns.ambient_reflectivity * self.background_e_per_reflectivity)
+            per_return, returns.path_m, periods_per_m, self.pattern.phase_offset_rad / (2.0 * jnp.pi), mask)
+        signal = (sum_by_slices(per_return, -1, UNROLLED_RETURNS) if mask is None
+                  else jnp.einsum("...k,kp->...p", per_return, jnp.asarray(mask)))  # then per phase image
+        return modulated, signal, returns.ambient_reflectivity * self.background_e_per_reflectivity
 
     def _with_camera(self, modulated: Array, signal: Array, background: Array) -> Exposure:
         return Exposure(modulated, signal, background, self.chain.params.pixel.demodulation_contrast,

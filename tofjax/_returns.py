@@ -46,12 +46,17 @@ class Returns(eqx.Module):
       factor: the background radiance is this x (background irradiance) / pi.
     - ``radial_m`` ``(rows, cols)``: the true distance along the pixel's centre ray to the first
       surface (inf: none).
+    - ``phase_image`` (static): ``None``, every return lit every phase image (a static scene); or
+      one number per return, the phase image it belongs to (0, 1, ...; -1: every one), so that a
+      scene that moves during a frame is its returns at each phase image's instants (docs/model.md,
+      "A camera in time: motion").
     """
 
     path_m: Float[Array, "rows cols returns"]
     radiance_per_w: Float[Array, "rows cols returns"]
     ambient_reflectivity: Float[Array, "rows cols"]
     radial_m: Float[Array, "rows cols"]
+    phase_image: tuple[int, ...] | None = eqx.field(static=True, default=None)
 
     def __check_init__(self):
         """Shapes always; values (:data:`RETURNS_RANGES`) when concrete: a NaN path or a negative
@@ -60,6 +65,10 @@ class Returns(eqx.Module):
         if p.ndim != 3 or p.shape != r.shape:
             raise ValueError(f"tofjax.Returns: path_m has shape {p.shape} and radiance_per_w {r.shape}: allowed "
                              "equal shapes (rows, cols, returns)")
+        tags = self.phase_image
+        if tags is not None and (len(tags) != p.shape[-1] or not all(isinstance(j, int) and j >= -1 for j in tags)):
+            raise ValueError(f"tofjax.Returns: phase_image = {tags!r}: allowed one phase image (0, 1, ...; -1: every one) "
+                             f"for each of the {p.shape[-1]} returns")
         for key in ("ambient_reflectivity", "radial_m"):
             if getattr(self, key).shape != p.shape[:2]:
                 raise ValueError(f"tofjax.Returns: {key} has shape {getattr(self, key).shape}: allowed {p.shape[:2]} "
@@ -82,13 +91,30 @@ class Returns(eqx.Module):
 
         if not any(_is_tracer(getattr(self, key)) for key in RETURNS_RANGES):
             return self
-        return Returns(**{key: check_values("tofjax.Returns", key, getattr(self, key)) for key in RETURNS_RANGES})
+        return Returns(**{key: check_values("tofjax.Returns", key, getattr(self, key)) for key in RETURNS_RANGES},
+                       phase_image=self.phase_image)
 
     def __add__(self, other: Returns) -> Returns:
         """Both sets of returns (the background and truth of ``self``)."""
+        tags = None
+        if self.phase_image is not None or other.phase_image is not None:
+            tags = tuple(self.phase_image or (-1,) * self.path_m.shape[-1]) \
+                + tuple(other.phase_image or (-1,) * other.path_m.shape[-1])
         return Returns(jnp.concatenate([self.path_m, other.path_m], axis=-1),
                        jnp.concatenate([self.radiance_per_w, other.radiance_per_w], axis=-1),
-                       self.ambient_reflectivity, self.radial_m)
+                       self.ambient_reflectivity, self.radial_m, tags)
+
+    def phase_mask(self, n_phases: int) -> np.ndarray | None:
+        """``(returns, phases)``: 1 where a return lights a phase image (:attr:`phase_image`), ``None``
+        for a static scene's returns (each lights every one). ``ValueError`` for a phase image the
+        camera does not have."""
+        if self.phase_image is None:
+            return None
+        tags = np.asarray(self.phase_image)
+        if tags.max(initial=-1) >= n_phases:
+            raise ValueError(f"tofjax.Returns: phase_image names phase image {int(tags.max())}: the camera has "
+                             f"{n_phases} (0-{n_phases - 1}; -1: every one)")
+        return ((tags[:, None] == -1) | (tags[:, None] == np.arange(n_phases)[None, :])).astype(float)
 
 
 # Gauss-Legendre nodes for the rectangular FoV's normalisation (smooth integrand; 48 nodes per axis are
@@ -221,6 +247,9 @@ def save_returns(path, returns: Returns) -> None:
     cols), and ``format = "tofjax-returns/1"``."""
     from .outputs import write_npz
 
+    if returns.phase_image is not None:
+        raise ValueError("save_returns: these returns belong to phase images of a moving scene (Returns.phase_image); "
+                         "the tofjax-returns/1 file holds a static scene's: save each instant's returns instead")
     write_npz(path, {"format": np.array("tofjax-returns/1"), "path_m": np.asarray(returns.path_m),
                      "radiance_per_w": np.asarray(returns.radiance_per_w),
                      "ambient_reflectivity": np.asarray(returns.ambient_reflectivity),

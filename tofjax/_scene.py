@@ -20,6 +20,7 @@ import abc
 
 import functools
 import inspect
+from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -241,10 +242,21 @@ class AbstractPrimitive(eqx.Module):
     """A surface of a scene: a new kind is one subclass with :meth:`intersect` (its parameters as
     fields, range-checked in ``__check_init__``); :class:`SceneGeometry` takes any of them."""
 
+    #: The fields that are positions (m), which a translation moves (:meth:`translated`).
+    positions: ClassVar[tuple[str, ...]] = ()
+
     @abc.abstractmethod
     def intersect(self, d: Float[Array, "*r 3"]) -> Hit:
         """Where the rays ``d`` (unit directions from the lens centre) first meet this surface
         (:class:`Hit`; ``t`` inf where they miss it), its normal facing them, its reflectivity."""
+
+    def translated(self, offset_m: Float[Array, "3"]):
+        """This surface moved by ``offset_m`` (every field named in :attr:`positions`)."""
+        if not self.positions:
+            raise NotImplementedError(f"{type(self).__name__} names no positions (AbstractPrimitive.positions): it "
+                                      "cannot move")
+        return eqx.tree_at(lambda p: tuple(getattr(p, f) for f in self.positions), self,
+                           tuple(getattr(self, f) + offset_m for f in self.positions))
 
 
 class Plane(AbstractPrimitive):
@@ -256,6 +268,7 @@ class Plane(AbstractPrimitive):
     reflectivity: Float[Array, ""] = eqx.field(converter=_f64)
     lo: Float[Array, "3"] = eqx.field(converter=_f64, default=(-_INF, -_INF, -_INF))
     hi: Float[Array, "3"] = eqx.field(converter=_f64, default=(_INF, _INF, _INF))
+    positions: ClassVar[tuple[str, ...]] = ("point", "lo", "hi")
 
     def __check_init__(self):
         checked_range(self.point, "tofjax.scenes.Plane: point", unit="m")
@@ -281,6 +294,7 @@ class Sphere(AbstractPrimitive):
     centre: Float[Array, "3"] = eqx.field(converter=_f64)
     radius: Float[Array, ""] = eqx.field(converter=_f64)
     reflectivity: Float[Array, ""] = eqx.field(converter=_f64)
+    positions: ClassVar[tuple[str, ...]] = ("centre",)
 
     def __check_init__(self):
         checked_range(self.centre, "tofjax.scenes.Sphere: centre", unit="m")
@@ -306,6 +320,7 @@ class Box(AbstractPrimitive):
     lo: Float[Array, "3"] = eqx.field(converter=_f64)
     hi: Float[Array, "3"] = eqx.field(converter=_f64)
     reflectivity: Float[Array, ""] = eqx.field(converter=_f64)
+    positions: ClassVar[tuple[str, ...]] = ("lo", "hi")
 
     def __check_init__(self):
         _ordered(self.lo, self.hi, "tofjax.scenes.Box")
@@ -360,6 +375,12 @@ class SceneGeometry(eqx.Module):
             if not isinstance(p, AbstractPrimitive):
                 raise TypeError(f"tofjax.scenes.SceneGeometry: primitives[{i}] is a {type(p).__name__}, not a "
                                 "primitive (tofjax.scenes.Plane, Sphere, Box, or a subclass of AbstractPrimitive)")
+
+    def translated(self, offset_m: Float[Array, "3"]) -> SceneGeometry:
+        """The scene moved rigidly by ``offset_m`` (its primitives and patches)."""
+        patches = None if self.patches is None else eqx.tree_at(lambda p: p.centre, self.patches,
+                                                                  self.patches.centre + offset_m)
+        return SceneGeometry(tuple(p.translated(offset_m) for p in self.primitives), patches, self.name)
 
     def cast(self, d: Float[Array, "*r 3"]) -> Hit:
         """The nearest hit of every ray ``d`` (unit directions from the lens centre); of equally near
