@@ -42,6 +42,7 @@ def test_issue_sections_and_keys_exist():
                   "vignetting", "prnu_sigma", "phase_offset_sigma_rad", "tap_asymmetry_sigma", "threshold_sigma",
                   "seed", "distortion_k1", "distortion_k2", "distortion_p1", "distortion_p2", "distortion_k3"],
         "timing": ["readout_time_s", "frame_rate_hz"],
+        "interference": ["enabled", "peak_power_w", "baseline_m", "frequency_offset_hz", "phase_rad", "duty"],
     }
     values = tj.Config().values
     assert set(values) == set(required)

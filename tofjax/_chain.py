@@ -24,7 +24,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from ._adc import Readout
-from ._correlation import SERIES_POINTS, Correlation, correlation
+from ._correlation import SERIES_POINTS, Correlation, correlation, drift_correlation
 from ._charges import TapCharges
 from ._mixer import expose
 from ._depth import Demodulation
@@ -49,13 +49,15 @@ class Chain(eqx.Module):
     tuple after the exposure, module docstring; exactly one limit, one readout and one
     demodulation), ``sample`` (the pixels' own parameters, a :class:`tofjax.PixelPattern` of scalars
     (a swept pixel) or one per operating point (a frame's pixels): gain, dark slopes, phase offset,
-    tap asymmetry, full well; ``None``: the mean pixel).
+    tap asymmetry, full well; ``None``: the mean pixel), ``drift`` (the correlation's antiderivative when
+    another camera's light is in the scene, ``interference.enabled``; else ``None``).
     """
 
     params: Params
     correlation: Correlation
     stages: tuple[AbstractStage, ...]
     sample: PixelPattern | None = None
+    drift: Correlation | None = None
 
     def _one(self, kind: type) -> AbstractStage:
         (stage,) = (s for s in self.stages if isinstance(s, kind))
@@ -123,7 +125,7 @@ class Chain(eqx.Module):
         """Expected tap charges at the operating points (:func:`tofjax._mixer.expose`), of the chain's
         pixel sample if it has one."""
         return expose(self.params, self.correlation, distance_m, illuminance_lx, integration_time_s,
-                      dark_slopes_v_per_s, self.sample)
+                      dark_slopes_v_per_s, self.sample, self.drift)
 
     def tap_volts(self, held_a: Array, held_b: Array) -> tuple[Array, Array]:
         """Tap voltages V = V_reset - n e / C_int of held charges."""
@@ -154,4 +156,8 @@ def build_chain(params: Params, smooth: Smooth | None = None, points: int | None
     stages = (budget.stage(BEFORE_LIMIT), limit, budget.stage(AFTER_LIMIT),
               ReadoutNonlinearity(pixel.readout_nonlinearity, nominal_well), readout,
               Demodulation(pixel.n_phases, readout.mid_code))
-    return Chain(params, table, stages, sample)
+    drift = None
+    if params.interference.enabled:  # another camera's light drifts through the correlation
+        drift = drift_correlation(params.illumination_waveform, params.reference_waveform, pixel.n_phases,
+                                  tabulate=points is None or points > SERIES_POINTS)
+    return Chain(params, table, stages, sample, drift)

@@ -181,6 +181,7 @@ _SECTION_TITLES = {
     "illumination_waveform": "Emitted waveform (Table 4.6, Fig 4.2)",
     "reference_waveform": "Pixel reference (demodulation) waveform (Table 4.7)",
     "adc": "Analogue-to-digital converter (Table 4.8, Fig 4.11)",
+    "interference": "Another camera's illumination in the scene (thesis §6.1.3: interference of several cameras)",
     "timing": "Frame timing: the phase images' readout and the frame rate (Appendix A; eye-safety estimate)",
     "frame": "The whole pixel array: optics off axis and fixed-pattern effects (thesis §6.1.1-6.1.2; tofjax render)",
 }

@@ -139,7 +139,26 @@ def correlation(illumination: AbstractWaveform, reference: AbstractWaveform, n_p
     tabulated (``tabulate``), or evaluated as the series."""
     if points < 2 * n_harmonics + 2:
         raise ValueError(f"points = {points} cannot hold {n_harmonics} harmonics: allowed >= {2 * n_harmonics + 2}")
+    return _from_coefficients(correlation_coefficients(illumination, reference, n_harmonics), n_phases, points,
+                              tabulate)
+
+
+@eqx.filter_jit
+def drift_correlation(illumination: AbstractWaveform, reference: AbstractWaveform, n_phases: int, *,
+                      n_harmonics: int = N_HARMONICS, points: int = N_TABLE, tabulate: bool = True) -> Correlation:
+    """The periodic part G_j of the antiderivative of a_j in the delay (periods): a_j's series with
+    P_k / (i 2 pi k) for k >= 1 and no constant term, so that the average of a_j over delays
+    [x, y] is P_0 + (G_j(y) - G_j(x)) / (y - x) (:mod:`tofjax._interference`: light whose delay
+    drifts during an integration)."""
     p = correlation_coefficients(illumination, reference, n_harmonics)
+    k = jnp.arange(1, n_harmonics + 1, dtype=float).astype(p.dtype)
+    q = jnp.concatenate([jnp.zeros(1, p.dtype), p[1:] / (2j * jnp.pi * k)])
+    return _from_coefficients(q, n_phases, points, tabulate)
+
+
+def _from_coefficients(p, n_phases: int, points: int, tabulate: bool) -> Correlation:
+    """The :class:`Correlation` of series coefficients ``p`` (k = 0..K)."""
+    n_harmonics = p.shape[0] - 1
     if not tabulate:
         return Correlation(p, n_phases, None, jnp.asarray(0.0))
     k = jnp.arange(n_harmonics + 1, dtype=float)

@@ -67,7 +67,7 @@ _MAIN_KEYS = ("scene.background", *_NOMINAL_KEYS, "scene.samples", "pixel.iterat
               *(k for pair in _RANGE_KEYS.values() for k in pair))
 _TAB_SECTIONS = {
     "Pixel": ("pixel", "illumination_waveform", "reference_waveform"),
-    "Scene & Camera": ("illumination", "scene", "camera", "timing", "frame"),
+    "Scene & Camera": ("illumination", "scene", "camera", "timing", "interference", "frame"),
     "Physical & ADC": ("adc",),
 }
 _CONSTANT_UNITS = {"boltzmann_j_per_k": "J/K", "elementary_charge_c": "C", "speed_of_light_m_per_s": "m/s",

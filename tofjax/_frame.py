@@ -71,7 +71,8 @@ def scene_flags(params: Params, settings: FrameSettings, returns: Returns, direc
     def over_returns(x):  # adds of the few returns' slices, not XLA's slow reduction over a short axis
         return sum_by_slices(x, -1, UNROLLED_RETURNS)
 
-    radiance = returns.radiance_per_w
+    own = returns.own_light()  # the scene's flags are this camera's light's (another camera's is not a return)
+    radiance = returns.radiance_per_w if own is None else returns.radiance_per_w * jnp.asarray(own).reshape(1, 1, -1)
     total = over_returns(radiance)
     radial = returns.radial_m
     surface = jnp.isfinite(radial)
@@ -165,11 +166,34 @@ class PreparedCamera(eqx.Module):
         per_return = returns.radiance_per_w * self.active_e_per_radiance[..., None]  # (rows, cols, k)
         periods_per_m = params.illumination_waveform.modulation_frequency_hz / params.constants.speed_of_light_m_per_s
         mask = returns.phase_mask(self.chain.n_phases)  # a moving scene: each return lights its own phase images
-        modulated = params.pixel.demodulation_contrast * self.chain.correlation.weighted_sum(
-            per_return, returns.path_m, periods_per_m, self.pattern.phase_offset_rad / (2.0 * jnp.pi), mask)
-        signal = (sum_by_slices(per_return, -1, UNROLLED_RETURNS) if mask is None
-                  else jnp.einsum("...k,kp->...p", per_return, jnp.asarray(mask)))  # then per phase image
-        return modulated, signal, returns.ambient_reflectivity * self.background_e_per_reflectivity
+        own = returns.own_light()  # another camera's light in the scene: its returns apart
+        offset = self.pattern.phase_offset_rad / (2.0 * jnp.pi)
+        background = returns.ambient_reflectivity * self.background_e_per_reflectivity
+        contrast = params.pixel.demodulation_contrast
+        if own is None:
+            modulated = contrast * self.chain.correlation.weighted_sum(per_return, returns.path_m, periods_per_m,
+                                                                       offset, mask)
+            signal = (sum_by_slices(per_return, -1, UNROLLED_RETURNS) if mask is None
+                      else jnp.einsum("...k,kp->...p", per_return, jnp.asarray(mask)))  # then per phase image
+            return modulated, signal, background
+        from . import _interference as interference
+
+        if self.chain.drift is None:
+            raise ValueError("these returns include another camera's light (Returns.source) but this camera's "
+                             "interference.enabled is false: make the returns with this camera")
+        phases = np.ones((own.size, self.chain.n_phases)) if mask is None else mask
+        mine, theirs = phases * own[:, None], phases * (1.0 - own[:, None])
+        weight = jnp.asarray(own) + jnp.asarray(1.0 - own) * interference.electrons_scale(params)  # (k,)
+        scaled = per_return * weight.reshape((1,) * (per_return.ndim - 1) + (-1,))  # the interferer's electrons
+        fractions = interference.averaged_fractions(
+            self.chain.correlation, self.chain.drift, interference.delay_periods(params, returns.path_m)
+            + offset[..., None], params.interference.frequency_offset_hz, params.scene.integration_time_s,
+            params.timing.readout_time_s)
+        modulated = contrast * (self.chain.correlation.weighted_sum(per_return, returns.path_m, periods_per_m, offset,
+                                                                    mine)
+                                + jnp.einsum("...k,kp,...kp->...p", scaled, jnp.asarray(theirs), fractions))
+        signal = jnp.einsum("...k,kp->...p", scaled, jnp.asarray(phases))
+        return modulated, signal, background
 
     def _with_camera(self, modulated: Array, signal: Array, background: Array) -> Exposure:
         return Exposure(modulated, signal, background, self.chain.params.pixel.demodulation_contrast,

@@ -150,7 +150,19 @@ def _returns_of(params, settings, geometry, surf, rays, bins):
     if geometry.patches is not None:
         out = out + two_bounce_returns(params.illumination, settings.illumination_falloff_exponent,
                                        settings.baseline_m, surf, rays, geometry.patches, bins)
-    return out
+    return _with_interference(params, settings, surf, rays, out)
+
+
+def _with_interference(params, settings, surf, rays, out: Returns) -> Returns:
+    """``out`` and, with ``interference.enabled``, the interfering camera's direct light on the same
+    surfaces, from its position, tagged as its (:attr:`tofjax.Returns.source`; docs/model.md,
+    "Interference": its two-bounce light is left out)."""
+    if not params.interference.enabled:
+        return out
+    other = direct_returns(params.illumination, settings.illumination_falloff_exponent,
+                           params.interference.baseline_m, surf, rays)
+    k = other.path_m.shape[-1]
+    return out + Returns(other.path_m, other.radiance_per_w, out.ambient_reflectivity, out.radial_m, None, (1,) * k)
 
 
 @_jit.jit
@@ -227,7 +239,8 @@ def check_depth(depth, what: str):
 def _depth_returns(params, settings, depth, reflectivity, radial, shape, distortion):
     rays = pixel_rays(params.camera, shape, 1, distortion)
     surf = surface_from_depth(depth, reflectivity, rays, radial)
-    return direct_returns(params.illumination, settings.illumination_falloff_exponent, settings.baseline_m, surf, rays)
+    out = direct_returns(params.illumination, settings.illumination_falloff_exponent, settings.baseline_m, surf, rays)
+    return _with_interference(params, settings, surf, rays, out)
 
 
 def pixel_etendue_m2_sr(params: Params, settings: FrameSettings, rays: Rays | PixelField | None = None

@@ -36,8 +36,12 @@ def axis_etendue_m2_sr(params: Params, settings: FrameSettings) -> Array:
 
 def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*b"],
            illuminance_lx: Float[Array, "*b"], integration_time_s: Float[Array, "*b"],
-           dark_slopes_v_per_s: tuple[Array, Array] | None = None, sample: PixelPattern | None = None) -> TapCharges:
+           dark_slopes_v_per_s: tuple[Array, Array] | None = None, sample: PixelPattern | None = None,
+           drift: Correlation | None = None) -> TapCharges:
     """Expected tap electrons at every operating point (module docstring).
+
+    ``drift``: the correlation's antiderivative, given when ``interference.enabled``: the interfering
+    camera's light is added (:mod:`tofjax._interference`).
 
     ``dark_slopes_v_per_s``: the taps' own dark slopes (``simulate(..., fixed_pattern=True)``);
     ``sample``: the pixel's own parameters (:class:`tofjax.PixelPattern` of scalars or of the
@@ -65,5 +69,18 @@ def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*
         dark_a = dark_electrons(params.pixel, integration_time_s, consts, dark_slopes_v_per_s[0])
         dark_b = dark_electrons(params.pixel, integration_time_s, consts, dark_slopes_v_per_s[1])
     modulated = contrast * signal[..., None] * correlation(delay)
+    if drift is not None:  # another camera's light (tofjax._interference)
+        from . import _interference as interference
+
+        radiance_i, path_i = interference.axis_return(params, reflectivity, distance_m)
+        signal_i = radiance_i * active_e_per_radiance(params, etendue, integration_time_s) \
+            * interference.electrons_scale(params)
+        delay_i = interference.delay_periods(params, path_i)
+        if sample is not None:
+            delay_i = delay_i + sample.phase_offset_rad / (2.0 * jnp.pi)
+        fractions = interference.averaged_fractions(correlation, drift, delay_i, params.interference.frequency_offset_hz,
+                                                    integration_time_s, params.timing.readout_time_s)
+        modulated = modulated + contrast * signal_i[..., None] * fractions
+        signal = signal + signal_i
     asymmetry = jnp.zeros(()) if sample is None else sample.tap_asymmetry
     return Exposure(modulated, signal, background, contrast, asymmetry, dark_a, dark_b).charges()

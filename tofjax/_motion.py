@@ -95,8 +95,9 @@ def _stacked(parts: Returns, n_phases: int, substeps: int, static: Returns) -> R
         return jnp.moveaxis(x, 0, 2).reshape(rows, cols, n * k)
 
     tags = tuple(int(j) for j in np.repeat(np.arange(n_phases), substeps * k))
+    source = None if parts.source is None else tuple(parts.source) * n  # each instant's own and interfering light
     return Returns(flat(parts.path_m), flat(parts.radiance_per_w) / substeps, static.ambient_reflectivity,
-                   static.radial_m, tags)
+                   static.radial_m, tags, source)
 
 
 def moving_returns(camera, scene: MovingScene, **kwargs) -> Returns:
@@ -146,7 +147,7 @@ def per_phase_returns(returns) -> Returns:
     if not returns or not all(isinstance(r, Returns) for r in returns):
         raise TypeError("a scene given per phase image is a list of tofjax.Returns, one for each phase image")
     shapes = {r.path_m.shape for r in returns}
-    if len(shapes) != 1 or any(r.phase_image is not None for r in returns):
+    if len(shapes) != 1 or any(r.phase_image is not None for r in returns) or len({r.source for r in returns}) != 1:
         raise ValueError(f"the per-phase-image returns have shapes {sorted(shapes)}: allowed one shape (rows, cols, "
                          "returns) for every phase image, each a static scene's returns")
     parts = jax.tree_util.tree_map(lambda *x: jnp.stack(x), *returns)

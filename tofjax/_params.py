@@ -241,6 +241,21 @@ class Timing(eqx.Module):
         _check(self, "timing")
 
 
+class Interference(eqx.Module):
+    """Another camera's illumination in the scene (the ``[interference]`` section; docs/model.md,
+    "Interference"): ``enabled`` (static), its peak power, position, frequency offset, phase and duty."""
+
+    enabled: bool = _static("interference", "enabled")
+    peak_power_w: Scalar = _float("interference", "peak_power_w")
+    baseline_m: Float[Array, "2"] = _float("interference", "baseline_m")
+    frequency_offset_hz: Scalar = _float("interference", "frequency_offset_hz")
+    phase_rad: Scalar = _float("interference", "phase_rad")
+    duty: Scalar = _float("interference", "duty")
+
+    def __check_init__(self):
+        _check(self, "interference")
+
+
 class Params(eqx.Module):
     """Every parameter of the camera model, as one pytree.
 
@@ -256,6 +271,7 @@ class Params(eqx.Module):
     reference_waveform: ReferenceWaveform = eqx.field(default_factory=ReferenceWaveform)
     adc: ADC = eqx.field(default_factory=ADC)
     timing: Timing = eqx.field(default_factory=Timing)
+    interference: Interference = eqx.field(default_factory=Interference)
     constants: PhysicalConstants = eqx.field(default_factory=PhysicalConstants)
 
     def __check_init__(self):
@@ -277,4 +293,5 @@ SECTION_CLASSES: dict[str, type[eqx.Module]] = {
     "reference_waveform": ReferenceWaveform,
     "adc": ADC,
     "timing": Timing,
+    "interference": Interference,
 }

@@ -50,6 +50,9 @@ class Returns(eqx.Module):
       one number per return, the phase image it belongs to (0, 1, ...; -1: every one), so that a
       scene that moves during a frame is its returns at each phase image's instants (docs/model.md,
       "A camera in time: motion").
+    - ``source`` (static): ``None``, every return this camera's own light; or one number per return,
+      0 for this camera's light and 1 for an interfering camera's (docs/model.md, "Interference"; its
+      radiance is per watt of that camera's peak power).
     """
 
     path_m: Float[Array, "rows cols returns"]
@@ -57,6 +60,7 @@ class Returns(eqx.Module):
     ambient_reflectivity: Float[Array, "rows cols"]
     radial_m: Float[Array, "rows cols"]
     phase_image: tuple[int, ...] | None = eqx.field(static=True, default=None)
+    source: tuple[int, ...] | None = eqx.field(static=True, default=None)
 
     def __check_init__(self):
         """Shapes always; values (:data:`RETURNS_RANGES`) when concrete: a NaN path or a negative
@@ -69,6 +73,9 @@ class Returns(eqx.Module):
         if tags is not None and (len(tags) != p.shape[-1] or not all(isinstance(j, int) and j >= -1 for j in tags)):
             raise ValueError(f"tofjax.Returns: phase_image = {tags!r}: allowed one phase image (0, 1, ...; -1: every one) "
                              f"for each of the {p.shape[-1]} returns")
+        if self.source is not None and (len(self.source) != p.shape[-1] or not set(self.source) <= {0, 1}):
+            raise ValueError(f"tofjax.Returns: source = {self.source!r}: allowed 0 (this camera's light) or 1 (an "
+                             f"interfering camera's) for each of the {p.shape[-1]} returns")
         for key in ("ambient_reflectivity", "radial_m"):
             if getattr(self, key).shape != p.shape[:2]:
                 raise ValueError(f"tofjax.Returns: {key} has shape {getattr(self, key).shape}: allowed {p.shape[:2]} "
@@ -92,17 +99,24 @@ class Returns(eqx.Module):
         if not any(_is_tracer(getattr(self, key)) for key in RETURNS_RANGES):
             return self
         return Returns(**{key: check_values("tofjax.Returns", key, getattr(self, key)) for key in RETURNS_RANGES},
-                       phase_image=self.phase_image)
+                       phase_image=self.phase_image, source=self.source)
 
     def __add__(self, other: Returns) -> Returns:
         """Both sets of returns (the background and truth of ``self``)."""
-        tags = None
-        if self.phase_image is not None or other.phase_image is not None:
-            tags = tuple(self.phase_image or (-1,) * self.path_m.shape[-1]) \
-                + tuple(other.phase_image or (-1,) * other.path_m.shape[-1])
+        def merged(name, untagged):
+            mine, theirs = getattr(self, name), getattr(other, name)
+            if mine is None and theirs is None:
+                return None
+            return tuple(mine or (untagged,) * self.path_m.shape[-1]) + tuple(theirs or (untagged,) * other.path_m.shape[-1])
+
         return Returns(jnp.concatenate([self.path_m, other.path_m], axis=-1),
                        jnp.concatenate([self.radiance_per_w, other.radiance_per_w], axis=-1),
-                       self.ambient_reflectivity, self.radial_m, tags)
+                       self.ambient_reflectivity, self.radial_m, merged("phase_image", -1), merged("source", 0))
+
+    def own_light(self) -> np.ndarray | None:
+        """``(returns,)``: 1 for this camera's own light, 0 for an interfering camera's
+        (:attr:`source`); ``None`` when every return is its own."""
+        return None if self.source is None else (np.asarray(self.source) == 0).astype(float)
 
     def phase_mask(self, n_phases: int) -> np.ndarray | None:
         """``(returns, phases)``: 1 where a return lights a phase image (:attr:`phase_image`), ``None``
@@ -247,9 +261,10 @@ def save_returns(path, returns: Returns) -> None:
     cols), and ``format = "tofjax-returns/1"``."""
     from .outputs import write_npz
 
-    if returns.phase_image is not None:
-        raise ValueError("save_returns: these returns belong to phase images of a moving scene (Returns.phase_image); "
-                         "the tofjax-returns/1 file holds a static scene's: save each instant's returns instead")
+    if returns.phase_image is not None or returns.source is not None:
+        raise ValueError("save_returns: these returns belong to phase images of a moving scene (Returns.phase_image) "
+                         "or include another camera's light (Returns.source); the tofjax-returns/1 file holds one "
+                         "camera's light of a static scene: save each instant's returns without interference instead")
     write_npz(path, {"format": np.array("tofjax-returns/1"), "path_m": np.asarray(returns.path_m),
                      "radiance_per_w": np.asarray(returns.radiance_per_w),
                      "ambient_reflectivity": np.asarray(returns.ambient_reflectivity),

@@ -260,6 +260,22 @@ KEYS: tuple[Key, ...] = (
     _k("timing", "frame_rate_hz", "float", 5.0, "Hz",
        "frames per second (the thesis camera ran at 5, Appendix A); 0 = as fast as the phase images and their "
        "readout allow", 0.0, 1e4),
+    # --- [interference]  another camera's illumination in the scene (docs/model.md "Interference"; thesis §6.1.3)
+    _k("interference", "enabled", "bool", False, "-",
+       "another camera of this model lights the scene too (its light reaches every pixel, sweeps and frames)"),
+    _k("interference", "peak_power_w", "float", 1.2, "W", "its peak optical power (same waveform and FoV as this camera's)",
+       0.0, 1e3),
+    _k("interference", "baseline_m", "pair", [0.1, 0.0], "m",
+       "its position [x, y] in this camera's lens plane (x right, y up; its axis parallel to this camera's)",
+       -10.0, 10.0),
+    _k("interference", "frequency_offset_hz", "float", 0.0, "Hz",
+       "its modulation frequency minus this camera's (0: the same frequency, a phase-dependent bias; |offset| x "
+       "integration time >> 1: it averages out, adding shot noise)", -1e9, 1e9),
+    _k("interference", "phase_rad", "float", 0.0, "rad",
+       "its modulation phase relative to this camera's reference at the frame's start", -100.0, 100.0),
+    _k("interference", "duty", "float", 1.0, "1",
+       "the fraction of this camera's integration during which it emits (its own frame timing, on average)", 0.0,
+       1.0),
     # --- [frame]  the whole pixel array (thesis §6.1.1-6.1.2, future work; docs/model.md "Full frames")
     _k("frame", "subpixel_samples", "int", 3, "1",
        "rays per pixel along each axis (s x s sub-pixel samples): a pixel straddling a depth edge mixes both "
