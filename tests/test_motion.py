@@ -1,8 +1,11 @@
 """A camera in time: scenes that move during a frame (tofjax._motion; docs/model.md "A camera in time:
 motion"). Each phase image is the scene where it stands then: against static frames at those
-instants, a NumPy demodulation written here, and the band a moving edge sweeps."""
+instants, a NumPy demodulation written here, and the band a moving edge sweeps. And the sensor
+warming up: its phase drifts as a longer path ("Dark current and temperature")."""
 
 import dataclasses
+
+import equinox as eqx
 
 import jax
 import numpy as np
@@ -128,3 +131,28 @@ def test_what_cannot_move_is_refused_in_one_line():
     three = tj.Camera(small(dataclasses.replace(tj.Params(), pixel=tj.Pixel(n_phases=3))), ONE_RAY)
     with pytest.raises(ValueError, match="phase_image names phase image 3: the camera has 3"):
         tj.predict(three, moving)
+
+
+def test_the_phase_drifts_with_temperature_as_a_longer_path():
+    """pixel.phase_drift_rad_per_c k: at T the camera reads every return as if its path were longer by
+    k (T - T_ref) c / (2 pi f) (noise and ADC off, where the dark current's growth cancels in the
+    taps' differences); the sweep's centre pixel reads what the frame's axis pixel reads; d/dT of
+    the reading by a central difference."""
+    config = tj.Config().replace("pixel.noise", False).replace("adc.enabled", False) \
+        .replace("pixel.phase_drift_rad_per_c", 0.01)
+    warm = config.replace("pixel.temperature_c", 45.0)
+    returns = tj.Camera(small(config.params), ONE_RAY).returns(scenes.wall(1.3))
+    c, f = 299792458.0, 80.32e6
+    longer = dataclasses.replace(returns, path_m=returns.path_m + 0.01 * 20.0 * c / (2 * np.pi * f))
+    hot = tj.predict(tj.Camera(small(warm.params), ONE_RAY), returns)
+    np.testing.assert_allclose(hot.radial_m, tj.predict(tj.Camera(small(config.params), ONE_RAY), longer).radial_m,
+                               rtol=1e-12)
+    point = tj.predict(warm.params, tj.Sweep("distance", [1.3]))
+    np.testing.assert_allclose(point.depth_mean_m[0], hot.radial_m[CENTRE], rtol=1e-12)
+
+    def reading(t_c):
+        p = eqx.tree_at(lambda q: q.pixel.temperature_c, warm.params, t_c)
+        return tj.predict(p, tj.Sweep("distance", [1.3])).depth_mean_m[0]
+
+    h = 1e-4
+    np.testing.assert_allclose(jax.grad(reading)(45.0), (reading(45.0 + h) - reading(45.0 - h)) / (2 * h), rtol=1e-6)

@@ -38,6 +38,7 @@ from ._framegeometry import FrameSettings, frame_shape, lens_distortion, pixel_e
 from ._executor import FRAME_CHUNK_ELEMENTS, equal_parts, execute, programs
 from ._frames import PointCharges, draw_frames
 from ._charges import Exposure, TapCharges
+from ._mixer import phase_drift_periods
 from ._montecarlo import Prepared, assemble, check_counts, frames_step
 from ._noise import dark_electrons
 from ._photometry import active_e_per_radiance, background_e_per_reflectivity
@@ -167,7 +168,7 @@ class PreparedCamera(eqx.Module):
         periods_per_m = params.illumination_waveform.modulation_frequency_hz / params.constants.speed_of_light_m_per_s
         mask = returns.phase_mask(self.chain.n_phases)  # a moving scene: each return lights its own phase images
         own = returns.own_light()  # another camera's light in the scene: its returns apart
-        offset = self.pattern.phase_offset_rad / (2.0 * jnp.pi)
+        offset = self.pattern.phase_offset_rad / (2.0 * jnp.pi) + phase_drift_periods(params.pixel)
         background = returns.ambient_reflectivity * self.background_e_per_reflectivity
         contrast = params.pixel.demodulation_contrast
         if own is None:

@@ -34,6 +34,13 @@ def axis_etendue_m2_sr(params: Params, settings: FrameSettings) -> Array:
     return pixel_etendue_m2_sr(params, settings, PixelField(one, 0.0 * one))
 
 
+def phase_drift_periods(pixel) -> Float[Array, ""]:
+    """The demodulation phase's drift with the sensor's temperature, in periods: k (T - T_ref) / 2 pi
+    (``pixel.phase_drift_rad_per_c``, from ``pixel.dark_reference_temperature_c``); it adds to every
+    light's delay, as a pixel's phase offset does (docs/model.md, "Dark current and temperature")."""
+    return pixel.phase_drift_rad_per_c * (pixel.temperature_c - pixel.dark_reference_temperature_c) / (2.0 * jnp.pi)
+
+
 def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*b"],
            illuminance_lx: Float[Array, "*b"], integration_time_s: Float[Array, "*b"],
            dark_slopes_v_per_s: tuple[Array, Array] | None = None, sample: PixelPattern | None = None,
@@ -59,7 +66,8 @@ def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*
     signal = radiance * active_e_per_radiance(params, etendue, integration_time_s)
     background = reflectivity * background_e_per_reflectivity(params, etendue, illuminance_lx, integration_time_s)
     # The reflected phase 2 pi f path / c (Eq 3.22: 4 pi f d / c on the axis) in periods.
-    delay = params.illumination_waveform.modulation_frequency_hz * path_m / consts.speed_of_light_m_per_s
+    warm = phase_drift_periods(params.pixel)  # the temperature's phase drift, on every light
+    delay = params.illumination_waveform.modulation_frequency_hz * path_m / consts.speed_of_light_m_per_s + warm
     if sample is not None:  # the pixel's demodulation phase offset, as a frame's pixel has it
         delay = delay + sample.phase_offset_rad / (2.0 * jnp.pi)
     contrast = params.pixel.demodulation_contrast
@@ -75,7 +83,7 @@ def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*
         radiance_i, path_i = interference.axis_return(params, reflectivity, distance_m)
         signal_i = radiance_i * active_e_per_radiance(params, etendue, integration_time_s) \
             * interference.electrons_scale(params)
-        delay_i = interference.delay_periods(params, path_i)
+        delay_i = interference.delay_periods(params, path_i) + warm
         if sample is not None:
             delay_i = delay_i + sample.phase_offset_rad / (2.0 * jnp.pi)
         fractions = interference.averaged_fractions(correlation, drift, delay_i, params.interference.frequency_offset_hz,

@@ -207,9 +207,14 @@ KEYS: tuple[Key, ...] = (
     _k("pixel", "dark_slope_sigma_v_per_s", "float", 1.0, "V/s",
        "pixel-to-pixel (fixed-pattern) sigma of the single-ended dark slope (1 mV/ms)", 0.0, 100.0),
     _k("pixel", "dark_reference_temperature_c", "float", 25.0, "degC",
-       "sensor temperature at which the dark slopes above hold", -273.15, 200.0, lo_open=True),
+       "sensor temperature at which the dark slopes above hold, and from which phase_drift_rad_per_c counts",
+       -273.15, 200.0, lo_open=True),
     _k("pixel", "dark_doubling_temperature_c", "float", 7.0, "degC",
        "temperature rise that doubles the dark current (5-8 degC for silicon image sensors)", 1.0, 50.0),
+    _k("pixel", "phase_drift_rad_per_c", "float", 0.0, "rad/degC",
+       "temperature coefficient of the demodulation phase (the drivers' and the illumination's delays drift "
+       "with temperature): every distance reads longer by k (T - T_ref) c / (4 pi f); 0 = none (unknown: "
+       "measure your camera's warm-up)", -1.0, 1.0),
     _k("pixel", "readout_noise_e", "float", 0.0, "e-",
        "readout noise of one tap beyond kTC (source follower, column amplifier, ADC input), rms electrons; "
        "0 = none", 0.0, 1e5),
