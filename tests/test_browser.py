@@ -2,7 +2,7 @@
 127.0.0.1, and Playwright drives Debian's Chromium (headless) through what a user does: change a
 value and see the preview redraw, enter an invalid value and see the message at the field (outlined
 red), run Calculate and see the plots, zoom into one and export its curves, cancel a long run, save
-and load a TOML file. Screenshots of each step
+and load a TOML file, render a frame in the Frame tab (analytic, then Monte Carlo). Screenshots of each step
 are kept in ``test-artifacts/browser/`` (or ``$TOFJAX_TEST_ARTIFACTS/browser``).
 
 Needs playwright, voila and a Chromium (``$TOFJAX_CHROMIUM``, else /usr/bin/chromium); without them
@@ -204,6 +204,18 @@ def test_the_explorer_in_a_browser(voila):
             expect(page.locator(".tofjax-message")).to_contain_text("loaded")
             expect(_field(page, "scene.samples").locator("input")).to_have_value("1000")
             page.screenshot(path=shots / "7_loaded.png")
+
+            # The Frame tab: the analytic frame of its scene at once, then three Monte Carlo frames.
+            page.get_by_role("tab", name="Frame").click()
+            page.get_by_role("button", name="Noise image").click()
+            expect(page.locator(".tofjax-frame-summary")).to_contain_text("good pixels", timeout=120_000)
+            page.wait_for_function("() => document.querySelector('.tofjax-frame-image').naturalWidth > 0")
+            frames_box = page.get_by_role("spinbutton", name="Monte Carlo frames")
+            frames_box.fill("3")
+            frames_box.press("Enter")
+            page.get_by_role("button", name="Monte Carlo frames").click()
+            expect(page.locator(".tofjax-frame-summary")).to_contain_text("3 Monte Carlo frames", timeout=120_000)
+            page.screenshot(path=shots / "8_frame.png")
         except Exception:
             page.screenshot(path=shots / "failed.png", full_page=True)
             raise

@@ -34,7 +34,7 @@ def _set(ex, dotted, value, index=0):
 
 def test_every_key_sits_in_exactly_one_tab_with_its_unit_and_range():
     ex = tj.explorer()
-    assert ex.tabs.titles == ("Main", "Pixel", "Scene & Camera", "Physical & ADC")
+    assert ex.tabs.titles == ("Main", "Pixel", "Scene & Camera", "Physical & ADC", "Frame")
     assert set(ex.fields) == {k.dotted for k in KEYS}
     tab_of = {}
     for title, tab in zip(ex.tabs.titles, ex.tabs.children, strict=True):

@@ -60,3 +60,28 @@ def test_a_run_is_stale_once_the_settings_differ(tmp_path):
     assert not state.stale("distance", "analytic", 7)  # the seed matters to Monte Carlo runs only
     state.edit(KEY_BY_DOTTED["scene.distance_m"], lambda: 2.0)
     assert state.stale("distance", "analytic", 0)
+
+
+def test_a_frame_of_a_scene_in_words_or_a_file_of_the_folder(tmp_path):
+    """The Frame tab's state: a built-in scene's analytic frame and Monte Carlo frames (its headline
+    text says which), a depth map from the folder, and a message, not an exception, for a scene that
+    is not one, a file outside the folder and bad counts."""
+    import numpy as np
+
+    config = tj.Config().replace("camera.optical_area_m", [31 * 17.5e-6, 21 * 17.5e-6])
+    state = ExplorerState(config, folder=tmp_path)
+    arrays, text = state.frame(config, "step_edge:near_m=1,far_m=1.6", 0, 0)
+    assert arrays["radial_m"].shape == (21, 31) and "(analytic)" in text and "good pixels" in text
+    arrays, text = state.frame(config, "wall", 4, 1)
+    assert "(Monte Carlo)" in text and np.all(np.isfinite(arrays["depth_std_m"]))
+    np.savez(tmp_path / "depth.npz", z_m=np.full((21, 31), 1.2))
+    arrays, _ = state.frame(config, "depth.npz", 0, 0)
+    np.testing.assert_allclose(arrays["z_true_m"], 1.2)
+    assert state.frame(config, "walll", 0, 0).text.startswith("scene 'walll' is not a built-in scene")
+    assert "only in" in state.frame(config, "../depth.npz", 0, 0).text
+    assert state.frame(config, "wall", -1, 0) == Message("frames = -1 is out of range: allowed integer 0 <= value <= "
+                                                         "10000", True)
+    fig = tj.frameio.frame_figure(arrays)
+    titles = [ax.get_title() for ax in fig.axes if ax.get_title()]  # the images (their colour bars have none)
+    assert titles == [tj.frameio.MAPS[name][0] for name in ("radial_m", "error_mm", "depth_std_mm", "amplitude_lsb",
+                                                            "flags")]

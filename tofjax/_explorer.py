@@ -45,12 +45,13 @@ try:
 except ImportError as err:  # pragma: no cover - exercised only without the extra
     raise ImportError('the explorer needs ipywidgets: pip install "tofjax[notebooks]"') from err
 
-from . import plots
+from . import frameio, plots
 from . import progress as _progress
 from ._config import Config
 from ._explorer_state import ExplorerState, Message, file_stem, names_key, save_png, summary
 from ._optics import lens, spot_area_m2
 from ._params import PhysicalConstants
+from ._scene import BUILTIN_SCENES
 from ._schema import KEYS, SWEEP_AXES, ConfigError, Key, keys_of
 from .outputs import write_text
 
@@ -338,6 +339,22 @@ class Explorer:
         self.fov_image = w.Image(format="png")
         self.derived = w.HTML("")
         self._tab_notes: list = []
+        # The Frame tab: a scene's frame, as tofjax render makes it.
+        self.frame_scene = w.Text(value="step_edge:near_m=1,far_m=1.6", description="scene", style=_DESCRIPTION,
+                                  layout=w.Layout(width="520px"))
+        self.frame_frames = w.IntText(value=20, description="Monte Carlo frames", style=_DESCRIPTION, layout=_wide())
+        self.frame_noise_button = w.Button(description="Noise image", icon="image", button_style="primary",
+                                           tooltip="the analytic frame: distance, error, expected noise, amplitude, "
+                                                   "flags (immediate)")
+        self.frame_mc_button = w.Button(description="Monte Carlo frames", icon="play",
+                                        tooltip="that many noisy frames and their statistics (Cancel stops them)")
+        self.frame_cancel_button = w.Button(description="Cancel frames", icon="stop", disabled=True)
+        self.frame_progress = w.FloatProgress(value=0.0, min=0.0, max=1.0, bar_style="info",
+                                              layout=w.Layout(width="220px", visibility="hidden"))
+        self.frame_message = w.HTML("", layout=w.Layout(min_height="1.6em"))
+        self.frame_summary = w.HTML("")
+        self.frame_image = w.Image(format="png")
+        self.frame_arrays: dict | None = None
 
         self.sweep.observe(lambda _c: (self._sweep_changed(), self._refresh_stale()), names="value")
         for control in (self.method, self.seed):
@@ -351,14 +368,19 @@ class Explorer:
         self.figures_button.on_click(lambda _b: self.save_figures())
         self.report_button.on_click(lambda _b: self.write_report())
         self.path.observe(lambda _c: self._hide_overwrite(), names="value")
+        self.frame_noise_button.on_click(lambda _b: self.render_frame(monte_carlo=False, wait=False))
+        self.frame_mc_button.on_click(lambda _b: self.render_frame(monte_carlo=True, wait=False))
+        self.frame_cancel_button.on_click(lambda _b: self.cancel())
 
         for widget, name in ((self.message, "message"), (self.plots_box, "plots"), (self.progress, "progress"),
                              (self.summary, "summary"), (self.stale_note, "stale-note"),
                              (self.waveform_image, "waveform-preview"), (self.fov_image, "fov-preview"),
-                             (self.correlation_image, "correlation-preview")):
+                             (self.correlation_image, "correlation-preview"), (self.frame_image, "frame-image"),
+                             (self.frame_summary, "frame-summary"), (self.frame_message, "frame-message"),
+                             (self.frame_progress, "frame-progress")):
             widget.add_class(f"tofjax-{name}")  # for a browser test's selectors
-        self.tabs = w.Tab(children=[self._main_tab(), *(self._section_tab(t) for t in _TAB_SECTIONS)],
-                          titles=["Main", *_TAB_SECTIONS])
+        self.tabs = w.Tab(children=[self._main_tab(), *(self._section_tab(t) for t in _TAB_SECTIONS), self._frame_tab()],
+                          titles=["Main", *_TAB_SECTIONS, "Frame"])
         self.widget = w.VBox([w.HTML(_STYLE + "<b>tofjax</b>: ToF camera performance model"), self.tabs])
         self.tabs.observe(lambda _c: self._render_shown(), names="selected_index")
         self._sweep_changed()
@@ -421,6 +443,22 @@ class Explorer:
             side.insert(0, self._tab_notes[-1])
         return w.HBox([w.VBox(rows), w.VBox(side)], layout=w.Layout(flex_flow="row wrap"))
 
+    def _frame_tab(self):
+        """A scene's frame on this configuration's camera (``tofjax render`` in the explorer): the scene
+        in words (a built-in scene and its parameters, or an NPZ file in the folder), the analytic
+        noise image at once, Monte Carlo frames on request (progress, Cancel)."""
+        scenes_help = "; ".join(f"<code>{name}</code>: " + ", ".join(ranges) for name, (_, ranges) in
+                                BUILTIN_SCENES.items())
+        return w.VBox([
+            w.HTML("<b>A frame</b> of the camera above (every pixel; docs/model.md, \"Full frames\"). Scene: "
+                   "<code>NAME</code> or <code>NAME:key=value,...</code>, or a depth map / returns NPZ file in the "
+                   f"folder. Built-in scenes and their parameters: {scenes_help}."),
+            self.frame_scene, self.frame_frames,
+            w.HBox([self.frame_noise_button, self.frame_mc_button, self.frame_cancel_button, self.frame_progress],
+                   layout=w.Layout(align_items="center")),
+            self.frame_message, self.frame_summary, self.frame_image,
+        ])
+
     def _repr_mimebundle_(self, **kwargs):
         return self.widget._repr_mimebundle_(**kwargs)
 
@@ -450,6 +488,8 @@ class Explorer:
         """Buttons and lamp from the state: Calculate only when idle and valid; Cancel only when busy."""
         self.calculate_button.disabled = self.busy or self.error is not None
         self.cancel_button.disabled = not self.busy
+        self.frame_noise_button.disabled = self.frame_mc_button.disabled = self.busy or self.error is not None
+        self.frame_cancel_button.disabled = not self.busy
         self.lamp.value = _BUSY if self.busy else (_INVALID if self.error is not None else _READY)
         has_run = self.run is not None and not self.busy
         self.figures_button.disabled = not (has_run and self.figures)
@@ -554,6 +594,52 @@ class Explorer:
         else:
             self._thread = threading.Thread(target=self._work, args=(config, sweep, method, seed, names), daemon=True)
             self._thread.start()
+
+    def render_frame(self, monte_carlo: bool = False, wait: bool = True) -> None:
+        """The Frame tab's run: the analytic frame of its scene, with ``monte_carlo`` also its number of
+        Monte Carlo frames (the buttons: in a background thread, ``wait=False``; :meth:`wait` joins
+        it). One run at a time, as :meth:`calculate`."""
+        if self.busy:
+            self.frame_message.value = _error_html("a run is going: wait for it or press Cancel")
+            return
+        frames = self.frame_frames.value if monte_carlo else 0
+        config, scene, seed = self.config, self.frame_scene.value, self.seed.value
+        self.busy = True
+        self._cancel.clear()
+        self._controls()
+        self.frame_progress.value, self.frame_progress.description = 0.0, "starting" if frames else ""
+        self.frame_progress.layout.visibility = "visible" if frames else "hidden"
+        self.frame_message.value = html.escape(f"rendering {scene}" + (f": {frames} Monte Carlo frames" if frames
+                                                                       else ": the analytic frame"))
+        if wait:
+            self._frame_work(config, scene, frames, seed)
+        else:
+            self._thread = threading.Thread(target=self._frame_work, args=(config, scene, frames, seed), daemon=True)
+            self._thread.start()
+
+    def _frame_work(self, config, scene: str, frames: int, seed: int) -> None:
+        """The frame (in the background thread for the buttons): never raises; the outcome is a message."""
+        message = ""
+        try:
+            with _progress.reporting(_RunProgress(self.frame_progress, self._cancel)):
+                out = self.state.frame(config, scene, frames, seed)
+            if isinstance(out, Message):
+                message = _error_html(out.text)
+            else:
+                arrays, text = out
+                fig = frameio.frame_figure(arrays)
+                png, layout = self._png(fig)
+                self.frame_image.value, self.frame_image.layout = png, layout
+                self.frame_arrays = arrays
+                method = f"{frames} Monte Carlo frames" if frames else "analytic"
+                self.frame_summary.value = html.escape(f"{scene} ({method}): {text}")
+        except Exception as err:  # noqa: BLE001 - a background run must report, not vanish
+            message = ("cancelled: the frame below is still the previous one" if self._cancel.is_set()
+                       else _error_html(f"the frame failed: {str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__}"))
+        self.busy = False
+        self.frame_message.value = message
+        self.frame_progress.layout.visibility = "hidden"
+        self._controls()
 
     def wait(self, timeout: float | None = None) -> None:
         """Wait for a run started with the Calculate button (``calculate(wait=False)``)."""

@@ -144,6 +144,52 @@ class ExplorerState:
     def accept(self, run, figures: dict, numbers: dict) -> None:
         self.run, self.figures, self.headlines = run, figures, numbers
 
+    # --- frames (the Frame tab) -------------------------------------------------------------------
+    def frame(self, config: Config, scene: str, frames: int, seed: int) -> tuple[dict, str] | Message:
+        """A frame of ``scene`` (``wall``, ``step_edge:near_m=1,far_m=1.6``, or an NPZ file in
+        :attr:`folder`: a depth map or returns) on ``config``'s camera, as ``tofjax render`` makes
+        it: the analytic frame, and ``frames`` Monte Carlo frames beside it when ``frames`` > 0
+        (their chunks reported to :mod:`tofjax.progress`, which may cancel them). Returns the
+        frame's arrays (:func:`tofjax.frameio.frame_arrays`) and its headline text, or a
+        :class:`Message` saying why not."""
+        import jax
+
+        from . import frameio
+        from ._camera import Camera
+        from ._framescene import check_size, load_npz_scene, parse_scene
+        from .optics import frame_shape
+
+        if self.error is not None:
+            return Message(f"cannot render: {self.error}", True)
+        if isinstance(frames, bool) or not isinstance(frames, int) or not 0 <= frames <= 10_000:
+            return Message(f"frames = {frames!r} is out of range: allowed integer 0 <= value <= 10000", True)
+        if seed < 0:
+            return Message(f"seed = {seed} is out of range: allowed integer >= 0", True)
+        if len(config.modulation_frequencies_hz) > 1:
+            return Message("a frame simulates one modulation frequency: remove "
+                           "illumination_waveform.extra_modulation_frequencies_hz", True)
+        text = scene.strip()
+        if text.lower().endswith(".npz"):
+            path = self.resolve(text)
+            if isinstance(path, Message):
+                return path
+            text = str(path)
+        try:
+            builder, name, kwargs = parse_scene(text, option="scene")
+            params, settings = config.params, config.frame
+            camera = Camera.from_config(config)
+            geometry = None if builder is None else builder(**kwargs)
+            room = check_size(name, geometry, settings, frame_shape(params))  # the memory a frame needs
+            returns = (load_npz_scene(name, params, settings, room, option="scene") if geometry is None
+                       else camera.returns(geometry))
+            exposed = camera.expose(returns)
+            predicted = exposed.predict()
+            result = exposed.render(jax.random.key(seed), frames, progress=True) if frames else predicted
+        except ValueError as err:
+            return Message(str(err).strip().splitlines()[0], True)
+        arrays = frameio.frame_arrays(result, predicted)
+        return arrays, frameio.headline_text(frameio.headlines(arrays), monte_carlo=frames > 0)
+
     # --- files --------------------------------------------------------------------------------
     def resolve(self, text: str) -> Path | Message:
         """The file ``text`` names inside :attr:`folder` (relative, or absolute inside it), or why not."""

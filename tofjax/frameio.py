@@ -188,11 +188,8 @@ def write_png(path, image: np.ndarray, title: str, unit: str, cmap: str = "virid
     image = np.asarray(image, dtype=float)
     rows, cols = image.shape
     fig, ax = plt.subplots(figsize=(6.4, 6.4 * rows / cols + 0.6), dpi=110, layout="constrained")
-    finite = image[np.isfinite(image)]
-    if finite.size and vmin is None:
-        vmin, vmax = np.percentile(finite, [1, 99]) if finite.size > 100 else (finite.min(), finite.max())
-        if vmin == vmax:
-            vmin, vmax = vmin - 0.5, vmax + 0.5
+    if vmin is None:
+        vmin, vmax = color_limits(image)
     shown = ax.imshow(np.ma.masked_invalid(image), cmap=cmap, vmin=vmin, vmax=vmax, interpolation="nearest")
     ax.set_title(title)
     ax.set_xlabel("column")
@@ -203,9 +200,19 @@ def write_png(path, image: np.ndarray, title: str, unit: str, cmap: str = "virid
     return Path(path)
 
 
-def write_maps(directory, arrays: dict[str, np.ndarray]) -> list[Path]:
-    """The PNG colour maps of :data:`MAPS` that the arrays allow."""
-    directory = Path(directory)
+def color_limits(image: np.ndarray) -> tuple[float | None, float | None]:
+    """A colour map's limits: the 1st and 99th percentiles of the finite values (all of them for 100
+    or fewer), widened to a unit span where they are equal; ``(None, None)`` when none is finite."""
+    finite = image[np.isfinite(image)]
+    if not finite.size:
+        return None, None
+    vmin, vmax = np.percentile(finite, [1, 99]) if finite.size > 100 else (finite.min(), finite.max())
+    return (vmin - 0.5, vmax + 0.5) if vmin == vmax else (vmin, vmax)
+
+
+def map_images(arrays: dict[str, np.ndarray]) -> dict[str, tuple]:
+    """The colour maps of :data:`MAPS` that the arrays allow: name -> (image, title, unit, colour map,
+    (vmin, vmax) or (None, None)); what :func:`write_maps` writes and the explorer's Frame tab shows."""
     images = {
         "radial_m": arrays["radial_m"], "z_m": arrays["z_m"],
         "error_mm": 1e3 * distance_error_m(arrays),
@@ -216,7 +223,7 @@ def write_maps(directory, arrays: dict[str, np.ndarray]) -> list[Path]:
         images["predicted_std_mm"] = 1e3 * arrays["predicted_std_m"]
     if "frames_radial_m" in arrays:
         images["frame_radial_m"] = arrays["frames_radial_m"][0]
-    written = []
+    out = {}
     for name, image in images.items():
         title, unit, cmap = MAPS[name]
         limits = (0, 2 * max(FLAGS) - 1) if name == "flags" else (None, None)
@@ -224,8 +231,41 @@ def write_maps(directory, arrays: dict[str, np.ndarray]) -> list[Path]:
             finite = np.abs(image[np.isfinite(image)])
             span = float(np.percentile(finite, 99)) if finite.size else 1.0
             limits = (-span, span) if span > 0 else (-1, 1)
-        written.append(write_png(directory / f"{name}.png", image, title, unit, cmap, *limits))
-    return written
+        out[name] = (image, title, unit, cmap, limits)
+    return out
+
+
+
+def frame_figure(arrays: dict[str, np.ndarray], names: tuple[str, ...] = ("radial_m", "error_mm", "depth_std_mm",
+                                                                          "amplitude_lsb", "flags")):
+    """A frame's colour maps side by side, each with its colour bar (:func:`map_images`: the titles,
+    units, colour maps and limits ``tofjax render`` writes): what the explorer's Frame tab shows.
+    ``arrays``: :func:`frame_arrays`. A ``matplotlib.figure.Figure``."""
+    from matplotlib.figure import Figure
+
+    images = map_images(arrays)
+    shown = [n for n in names if n in images]
+    rows, cols = np.asarray(arrays["radial_m"]).shape
+    fig = Figure(figsize=(3.6 * len(shown), 3.6 * rows / cols + 1.0), layout="constrained")
+    axes = fig.subplots(1, len(shown), squeeze=False)
+    for ax, name in zip(axes[0], shown, strict=True):
+        image, title, unit, cmap, (vmin, vmax) = images[name]
+        image = np.asarray(image, dtype=float)
+        if vmin is None:
+            vmin, vmax = color_limits(image)
+        im = ax.imshow(np.ma.masked_invalid(image), cmap=cmap, vmin=vmin, vmax=vmax, interpolation="nearest")
+        ax.set_title(title, fontsize=8)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        fig.colorbar(im, ax=ax, label=unit, shrink=0.8)
+    return fig
+
+
+def write_maps(directory, arrays: dict[str, np.ndarray]) -> list[Path]:
+    """The PNG colour maps of :data:`MAPS` that the arrays allow (:func:`map_images`)."""
+    directory = Path(directory)
+    return [write_png(directory / f"{name}.png", image, title, unit, cmap, *limits)
+            for name, (image, title, unit, cmap, limits) in map_images(arrays).items()]
 
 
 def distance_error_m(arrays: dict[str, np.ndarray]) -> np.ndarray:
@@ -256,6 +296,26 @@ def headlines(arrays: dict[str, np.ndarray]) -> dict[str, float]:
         ratio = arrays["predicted_std_m"][good][usable] / measured[usable]
         out["median_noise_ratio"] = float(np.nanmedian(ratio)) if np.isfinite(ratio).any() else float("nan")
     return out
+
+
+def headline_text(numbers: dict, monte_carlo: bool = True) -> str:
+    """The frame's headline numbers (:func:`headlines`) in words, of the good (unflagged) pixels: their
+    share, and the flags that took the others; median noise, the median of the per-pixel ratio of
+    analytic to Monte Carlo noise (the agreement; the ratio of the two medians is not), median
+    |error|. ``monte_carlo``: whether the noise is the frames' (else the analytic frame's alone)."""
+    import math
+
+    def num(key, fmt):
+        x = numbers.get(key, math.nan)
+        return "-" if not math.isfinite(x) else format(x, fmt)
+
+    flagged = [f"{100 * numbers[f'{name}_fraction']:.1f} % {name.replace('_', ' ')}" for name in FLAG_KEYS.values()
+               if numbers[f"{name}_fraction"] > 0]
+    noise = (f"median depth noise {num('median_depth_std_mm', '.3g')} mm (Monte Carlo), analytic / Monte Carlo "
+             f"{num('median_noise_ratio', '.3f')} (median of the per-pixel ratio)" if monte_carlo
+             else f"median depth noise {num('median_depth_std_mm', '.3g')} mm (analytic)")
+    return (f"good pixels {100 * numbers['good_fraction']:.1f} %" + (f" ({', '.join(flagged)})" if flagged else "")
+            + f"; of those, {noise}, median |error| {num('median_abs_error_mm', '.3g')} mm")
 
 
 def write_report(directory, arrays: dict[str, np.ndarray], pngs: list[Path], title: str, lines: list[str]) -> Path:

@@ -7,10 +7,11 @@ self-contained ``report.html``.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import time
 from pathlib import Path
+
+from ._framescene import check_size, load_npz_scene, parse_scene
 
 
 def register(subparsers) -> None:
@@ -95,137 +96,6 @@ def _direction(text: str):
     return tuple(values)
 
 
-def parse_scene(text: str):
-    """``NAME`` or ``NAME:key=value,...`` -> (builder, name, keyword arguments), or a path to an NPZ
-    file -> (None, path, {}). Raises ``ValueError`` with one line naming the scene, key and range."""
-    from ._schema import suggest
-    from ._scene import BUILTIN_SCENES
-
-    if text.lower().endswith(".npz"):
-        path = Path(text)
-        if not path.is_file():
-            raise ValueError(f"--scene {text}: no such file")
-        return None, text, {}
-    name, _, rest = text.partition(":")
-    if name not in BUILTIN_SCENES:
-        raise ValueError(f"--scene {name!r} is not a built-in scene: allowed {', '.join(BUILTIN_SCENES)} or a "
-                         "FILE.npz" + suggest(name, BUILTIN_SCENES))
-    builder, ranges = BUILTIN_SCENES[name]
-    kwargs = {}
-    for item in filter(None, rest.split(",")):
-        key, eq, value = item.partition("=")
-        key = key.strip()
-        if key not in ranges:
-            raise ValueError(f"--scene {name}: {key!r} is not a parameter of {name}: allowed "
-                             + ", ".join(ranges) + suggest(key, ranges))
-        try:
-            x = float(value) if eq else float("nan")
-        except ValueError:
-            x = float("nan")
-        lo, hi = ranges[key]
-        if not (math.isfinite(x) and lo <= x <= hi):
-            raise ValueError(f"--scene {name}: {key} = {value.strip() or '(empty)'!s} is out of range: allowed "
-                             f"{lo:g} <= value <= {hi:g}")
-        kwargs[key] = x
-    return builder, name, kwargs
-
-
-_DEPTH_ARRAYS = ("z_m", "radial_m", "reflectivity")
-
-
-@contextlib.contextmanager
-def _scene_option():
-    """Messages about the scene file name the option: ``--scene FILE.npz: ...``."""
-    try:
-        yield
-    except ValueError as err:
-        if str(err).startswith("--scene"):
-            raise
-        raise ValueError(f"--scene {err}") from None
-
-
-def _npz_scene_kind(path: str) -> tuple[str, int]:
-    """What an NPZ scene holds, from its arrays' headers only: ``("returns", returns per pixel)`` or
-    ``("depth", 1)``; ``ValueError`` naming the file for anything else."""
-    from ._npz import npz_shapes
-
-    with _scene_option():
-        shapes = npz_shapes(path)
-    if "path_m" in shapes:
-        return "returns", shapes["path_m"][-1] if len(shapes["path_m"]) == 3 else 1
-    if "z_m" in shapes or "radial_m" in shapes:
-        return "depth", 1
-    raise ValueError(f"--scene {path}: holds neither returns (path_m, radiance_per_w) nor a depth map (z_m or "
-                     f"radial_m); found {', '.join(sorted(shapes)) or 'no arrays'}")
-
-
-def _load_npz_scene(path: str, params, settings, max_bytes: int):
-    import numpy as np
-
-    import tofjax as tj
-
-    from ._framegeometry import check_depth
-    from ._npz import npz_arrays
-
-    shape = tj.optics.frame_shape(params)
-    kind, _ = _npz_scene_kind(path)
-    with _scene_option():
-        if kind == "returns":
-            return tj.frameio.load_returns(path, shape, max_bytes=max_bytes)
-        arrays = npz_arrays(path, _DEPTH_ARRAYS, max_bytes=max_bytes)
-    key = "z_m" if "z_m" in arrays else "radial_m"
-    depth = arrays[key].astype(float)
-    rho = arrays.get("reflectivity", np.asarray(float(params.scene.reflectivity))).astype(float)
-    if depth.shape != shape:
-        raise ValueError(f"--scene {path}: {key} has shape {depth.shape}, the camera {shape} (rows, cols)")
-    check_depth(depth, f"--scene {path}: {key}")
-    if rho.shape not in ((), shape) or not np.all(np.isfinite(rho) & (rho >= 0) & (rho <= 1)):
-        raise ValueError(f"--scene {path}: reflectivity must be a number or a {shape} map with 0 <= value <= 1")
-    return tj.Camera(params, settings).returns(depth, reflectivity=rho, radial=key == "radial_m")
-
-
-def _check_size(name: str, geometry, settings, shape) -> int:
-    """Refuse a frame whose run would not fit this process's memory (before any work, naming the
-    resolution); returns the bytes an NPZ scene's arrays may take."""
-    from ._limits import available_memory_bytes, frame_memory_bytes, size_text
-
-    rows, cols = shape
-    s = settings.subpixel_samples
-    available = available_memory_bytes()
-    if geometry is None:
-        kind, per_pixel = _npz_scene_kind(name)
-        s = 1 if kind == "depth" else s
-        patches = 0
-    else:
-        patches = 0 if geometry.patches is None else int(geometry.patches.area_m2.shape[0])
-        per_pixel = s * s + (32 if patches else 0)
-    need = frame_memory_bytes(rows * cols, s, per_pixel, patches, cols)
-    if need > available:
-        raise ValueError(f"the camera's {rows} x {cols} pixels (camera.optical_area_m / camera.pixel_pitch_m) with "
-                         f"{s}^2 rays and {per_pixel} returns per pixel need about {size_text(need)} to render, more "
-                         f"than the {size_text(available)} this process can use: choose fewer pixels or fewer "
-                         "frame.subpixel_samples")
-    return max(available - need, 0) // 2
-
-
-def _summary(numbers: dict) -> str:
-    """The render summary's numbers, of the good (unflagged) pixels: their share, and the flags that
-    took the others; median noise, the median of the per-pixel ratio of analytic to Monte Carlo
-    noise (the agreement; the ratio of the two medians is not), median |error|."""
-    from ._flags import FLAG_KEYS
-
-    def num(key, fmt):
-        x = numbers.get(key, math.nan)
-        return "-" if not math.isfinite(x) else format(x, fmt)
-
-    flagged = [f"{100 * numbers[f'{name}_fraction']:.1f} % {name.replace('_', ' ')}" for name in FLAG_KEYS.values()
-               if numbers[f"{name}_fraction"] > 0]
-    return (f"good pixels {100 * numbers['good_fraction']:.1f} %" + (f" ({', '.join(flagged)})" if flagged else "")
-            + f"; of those, median depth noise {num('median_depth_std_mm', '.3g')} mm (Monte Carlo), analytic / Monte "
-            f"Carlo {num('median_noise_ratio', '.3f')} (median of the per-pixel ratio), median |error| "
-            f"{num('median_abs_error_mm', '.3g')} mm")
-
-
 def run(args) -> int:
     from .cli import check_output_dir, on_interrupt, output_dir, untouched_note
     from .progress import Progress, Stages, compiling, reporting
@@ -256,14 +126,14 @@ def run(args) -> int:
 
     timing = summary_lines(tj.Camera.from_config(config))  # refuses an impossible frame rate before any work
     geometry = builder(**kwargs) if builder is not None else None
-    npz_bytes = _check_size(name, geometry, settings, (rows, cols))
+    npz_bytes = check_size(name, geometry, settings, (rows, cols))
     most = max_keep_frames(rows * cols, params.pixel.n_phases, args.raw)
     if args.keep_frames > most:
         raise ValueError(f"--keep-frames = {args.keep_frames} is out of range for {rows} x {cols} pixels: allowed 0 <= "
                          f"value <= {most} (kept frames take at most 1 GiB; the statistics use every frame)")
     if args.check:
         if geometry is None:  # validate what the run would read
-            _load_npz_scene(name, params, settings, npz_bytes)
+            load_npz_scene(name, params, settings, npz_bytes)
         print(f"plan: {args.frames} frames of {rows} x {cols} pixels ({rows * cols * args.frames * params.pixel.n_phases:.3g}"
               f" phase images) of scene {name}, {settings.subpixel_samples}^2 rays per pixel; into {args.out}")
         return 0
@@ -272,7 +142,7 @@ def run(args) -> int:
     with Stages("render", enabled=not args.quiet) as stage, compiling(enabled=not args.quiet):
         if geometry is None:
             stage(f"reading {name}")
-            returns = _load_npz_scene(name, params, settings, npz_bytes)
+            returns = load_npz_scene(name, params, settings, npz_bytes)
         else:
             bounce = " and the two-bounce light" if getattr(geometry, "patches", None) is not None else ""
             stage(f"casting {settings.subpixel_samples}^2 rays per pixel of {rows} x {cols} pixels{bounce}")
@@ -303,7 +173,7 @@ def run(args) -> int:
             written = frameio.write_frame(folder.staging, arrays, f"tofjax render: {name}", lines,
                                           tj.optics.intrinsics(params, settings))
     numbers = frameio.headlines(arrays)
-    print(f"{rows} x {cols} pixels, {args.frames} frames in {t2 - t1:.2f} s; " + _summary(numbers)
+    print(f"{rows} x {cols} pixels, {args.frames} frames in {t2 - t1:.2f} s; " + frameio.headline_text(numbers)
           + f"; {written['points']} points")
     print("\n".join(timing))
     print(f"wrote frame.npz, {len(written['pngs'])} PNGs, depth_mm.png and amplitude.png (16-bit), points.ply, "
