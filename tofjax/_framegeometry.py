@@ -58,10 +58,14 @@ class FrameSettings(eqx.Module):
         _check(self, "frame")
 
     @property
+    def distortion_terms(self) -> tuple[Float[Array, ""], ...]:
+        """The lens distortion's five leaves in OpenCV's order ``(k1, k2, p1, p2, k3)``."""
+        return self.distortion_k1, self.distortion_k2, self.distortion_p1, self.distortion_p2, self.distortion_k3
+
+    @property
     def distortion(self) -> Float[Array, "5"]:
         """The lens distortion in OpenCV's order ``(k1, k2, p1, p2, k3)`` (:mod:`tofjax._distortion`)."""
-        return jnp.stack([self.distortion_k1, self.distortion_k2, self.distortion_p1, self.distortion_p2,
-                          self.distortion_k3])
+        return jnp.stack(self.distortion_terms)
 
 
 def frame_settings(values) -> FrameSettings:
@@ -75,9 +79,8 @@ def check_lens(params: Params, settings: FrameSettings) -> None:
     from ._distortion import check_one_to_one
     from ._schema import _is_tracer
 
-    k = (settings.distortion_k1, settings.distortion_k2, settings.distortion_p1, settings.distortion_p2,
-         settings.distortion_k3)
-    if any(_is_tracer(x) for x in k) or not any(float(x) for x in k):
+    k = lens_distortion(settings)
+    if k is None or _is_tracer(k):  # a pinhole, or not known until the program runs
         return
     cam = params.camera
     f = float(lens(cam).focal_length_m)
@@ -133,8 +136,7 @@ def lens_distortion(settings: FrameSettings) -> Float[Array, "5"] | None:
     entry points decide it outside their programs and pass it in."""
     from ._schema import _is_tracer
 
-    k = (settings.distortion_k1, settings.distortion_k2, settings.distortion_p1, settings.distortion_p2,
-         settings.distortion_k3)
+    k = settings.distortion_terms
     if not any(_is_tracer(x) for x in k) and not any(float(x) for x in k):
         return None
     return settings.distortion

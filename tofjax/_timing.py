@@ -35,7 +35,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float
 
 from ._params import Params
-from ._returns import footprint_integral
+from ._returns import _tan_half, intensity_per_w
 from ._waveforms import waveform_mean
 
 #: IEC 60825-1 measurement condition 3: a 7 mm aperture at 100 mm from the source, time base 100 s.
@@ -146,10 +146,11 @@ def brightest_intensity_per_w(params: Params, falloff_exponent) -> Float[Array, 
     S (:func:`tofjax._returns.intensity_per_w`) is monotonic in tan^2 theta, so its largest value
     is on the axis or at the rim (the corner of a rectangular field)."""
     ill = params.illumination
-    t = jnp.tan(jnp.deg2rad(ill.fov_deg) / 2.0)
-    rim = t * t if ill.fov_deg.shape == () else t[0] ** 2 + t[1] ** 2
-    n = jnp.asarray(falloff_exponent, dtype=float)
-    return jnp.maximum(1.0, (1.0 + rim) ** (1.5 - 0.5 * n)) / footprint_integral(ill, n)
+    t = _tan_half(ill.fov_deg)
+    rim = jnp.stack([t, jnp.zeros(()), jnp.ones(())]) if ill.fov_deg.shape == () else jnp.stack([t[0], t[1],
+                                                                                                  jnp.ones(())])
+    axis = jnp.array([0.0, 0.0, 1.0])
+    return jnp.maximum(intensity_per_w(ill, falloff_exponent, axis), intensity_per_w(ill, falloff_exponent, rim))
 
 
 def eye_safety(params: Params, timing: FrameTiming, falloff_exponent=0.0) -> EyeSafety:
