@@ -60,9 +60,14 @@ class MovingScene(eqx.Module):
     @property
     def still(self) -> bool:
         """Whether the velocity is concretely zero (then the frame is the static scene's)."""
-        from ._schema import _is_tracer
+        return _still(self.velocity_m_per_s)
 
-        return not _is_tracer(self.velocity_m_per_s) and not np.any(np.asarray(self.velocity_m_per_s))
+
+def _still(velocity) -> bool:
+    """Whether a velocity (a vector or a map) is concretely zero everywhere."""
+    from ._schema import _is_tracer
+
+    return not _is_tracer(velocity) and not np.any(np.asarray(velocity))
 
 
 def moving(scene: SceneGeometry, velocity_m_per_s, *, substeps: int = 4) -> MovingScene:
@@ -107,12 +112,17 @@ def moving_returns(camera, scene: MovingScene, **kwargs) -> Returns:
     static = camera.returns(scene.geometry, **kwargs)
     if scene.still:
         return static
+    return _over_instants(camera, scene.substeps, static,
+                          lambda t: camera.returns(scene.geometry.translated(t * scene.velocity_m_per_s), **kwargs))
+
+
+def _over_instants(camera, substeps: int, static: Returns, returns_at) -> Returns:
+    """The returns ``returns_at(t)`` of every instant the camera's phase images expose (``t`` from the
+    frame's centre, s; one ``vmap``ed program), stacked and tagged (:func:`_stacked`)."""
     params = camera.params
     n = params.pixel.n_phases
-    times = instants_s(n, params.scene.integration_time_s, params.timing.readout_time_s, scene.substeps)
-    offsets = times.reshape(-1, 1) * scene.velocity_m_per_s[None, :]  # (instants, 3), m
-    parts = jax.vmap(lambda o: camera.returns(scene.geometry.translated(o), **kwargs))(offsets)
-    return _stacked(parts, n, scene.substeps, static)
+    times = instants_s(n, params.scene.integration_time_s, params.timing.readout_time_s, substeps).reshape(-1)
+    return _stacked(jax.vmap(returns_at)(times), n, substeps, static)
 
 
 def moving_depth_returns(camera, depth_m, reflectivity, radial: bool, velocity_m_per_s, substeps: int) -> Returns:
@@ -128,16 +138,11 @@ def moving_depth_returns(camera, depth_m, reflectivity, radial: bool, velocity_m
     if v.shape not in ((), static.shape):
         raise ValueError(f"depth map: velocity_m_per_s has shape {v.shape}: allowed a number or the camera's "
                          f"{static.shape}")
-    from ._schema import _is_tracer
-
-    if not _is_tracer(v) and not np.any(np.asarray(v)):
+    if _still(v):
         return static
-    params = camera.params
-    n = params.pixel.n_phases
-    times = instants_s(n, params.scene.integration_time_s, params.timing.readout_time_s, substeps).reshape(-1)
     depth = jnp.asarray(depth_m, dtype=float)
-    parts = jax.vmap(lambda t: depth_returns(params, camera.settings, depth + v * t, reflectivity, radial=radial))(times)
-    return _stacked(parts, n, substeps, static)
+    return _over_instants(camera, substeps, static, lambda t: depth_returns(camera.params, camera.settings,
+                                                                            depth + v * t, reflectivity, radial=radial))
 
 
 def per_phase_returns(returns) -> Returns:
