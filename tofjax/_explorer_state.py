@@ -165,9 +165,6 @@ class ExplorerState:
             return Message(f"frames = {frames!r} is out of range: allowed integer 0 <= value <= 10000", True)
         if seed < 0:
             return Message(f"seed = {seed} is out of range: allowed integer >= 0", True)
-        if len(config.modulation_frequencies_hz) > 1:
-            return Message("a frame simulates one modulation frequency: remove "
-                           "illumination_waveform.extra_modulation_frequencies_hz", True)
         text = scene.strip()
         if text.lower().endswith(".npz"):
             path = self.resolve(text)
@@ -178,11 +175,12 @@ class ExplorerState:
             builder, name, kwargs = parse_scene(text, option="scene")
             params, settings = config.params, config.frame
             camera = Camera.from_config(config)
+            prepared = camera.prepare()  # first: it refuses a camera of several frequencies before any ray cast
             geometry = None if builder is None else builder(**kwargs)
             room = check_size(name, geometry, settings, frame_shape(params))  # the memory a frame needs
             returns = (load_npz_scene(name, params, settings, room, option="scene") if geometry is None
                        else camera.returns(geometry))
-            exposed = camera.expose(returns)
+            exposed = prepared.prepare(returns)
             predicted = exposed.predict()
             result = exposed.render(jax.random.key(seed), frames, progress=True) if frames else predicted
         except ValueError as err:
