@@ -392,13 +392,18 @@ def interrupts():
 def main(argv: list[str] | None = None) -> int:
     on_interrupt(None)
     args = build_parser().parse_args(argv)
-    from ._schema import ConfigError
     from .progress import clear_interrupt
-    from .sweepfile import SweepFileError
 
     clear_interrupt()
-    stack = contextlib.ExitStack()
-    stack.enter_context(interrupts())
+    with interrupts():
+        return _run(args)
+
+
+def _run(args) -> int:
+    """A parsed command, its errors as one line and an exit status (inside :func:`interrupts`)."""
+    from ._schema import ConfigError
+    from .sweepfile import SweepFileError
+
     try:
         if getattr(args, "run", None) is not None:  # calibrate, record, ...: they compute, so cache
             enable_compilation_cache(fast_compile=args.command == "calibrate")
@@ -429,8 +434,6 @@ def main(argv: list[str] | None = None) -> int:
     except (ConfigError, SweepFileError, ValueError) as err:
         print(f"tofjax: error: {err}", file=sys.stderr)
         return 2
-    finally:
-        stack.close()
 
 
 def entry_point() -> None:  # pragma: no cover - thin wrapper for the console script
