@@ -1,7 +1,9 @@
 """Measured sweeps as calibration data: rows, uncertainties and the camera each file was taken with.
 
 Each file's operating points are its per-row ``distance_m``, ``illuminance_lx`` and
-``integration_time_s`` columns. Its camera is the calibration configuration, with any metadata line
+``integration_time_s`` columns, and ``temperature_c`` (the sensor's, format 3) where it has one;
+without it every row is at the configuration's ``pixel.temperature_c`` (or the file's own
+``# pixel.temperature_c:`` line). Its camera is the calibration configuration, with any metadata line
 whose key is a dotted configuration key (``# scene.reflectivity: 0.9``, ``# scene.background:
 halogen``) overriding that key for this file. The modulation frequencies and number of phases in the
 metadata must match the configuration: a file of one frequency against a configuration of several
@@ -78,12 +80,15 @@ class SweepRows:
         return self.config.params
 
 
-def _overrides(path: str, metadata: dict[str, str], config: tj.Config) -> tj.Config:
+def _overrides(path: str, metadata: dict[str, str], config: tj.Config, columns) -> tj.Config:
+    """``config`` with the file's metadata lines that name configuration keys applied, except the
+    operating point's where the file has its column (``columns``): its rows set those."""
+    rows_set = {axis.key for axis in SWEEP_AXES.values() if axis.column in columns}
     for key, text in metadata.items():
         if key not in KEY_BY_DOTTED:
             continue
         spec = KEY_BY_DOTTED[key]
-        if spec.dotted in (axis.key for axis in SWEEP_AXES.values()):  # the file's rows set the operating point
+        if spec.dotted in rows_set:
             continue
         value: object = text
         if spec.kind in ("float", "int"):
@@ -129,7 +134,7 @@ def read_measurement(path: str | Path, config: tj.Config) -> Measurement:
     meta = data.metadata
     # The file's own overrides first: the checks below hold for the camera the file is modelled
     # with (a "# pixel.n_phases: 3" beside "# n_phases: 4" is refused, not applied after the check).
-    file_config = _overrides(path, meta, config)
+    file_config = _overrides(path, meta, config, data.fields)
     f_cfg = file_config.modulation_frequencies_hz
     f_file = data.modulation_frequencies_hz
     if len(f_file) != len(f_cfg):
@@ -152,6 +157,8 @@ def read_measurement(path: str | Path, config: tj.Config) -> Measurement:
     per = data.integration_time_per
     if per != "phase_image":  # the model's unit is one phase image
         cols["integration_time_s"] = tj.optics.phase_image_time_s(cols["integration_time_s"], per, data.n_phases, len(f_file))
+    if "temperature_c" not in data.fields:  # a file without it: every row at the configured temperature
+        cols["temperature_c"] = np.full(data.n_rows, float(file_config.params.pixel.temperature_c))
     for name in OPERATING_POINT_COLUMNS:
         empty = np.isnan(cols[name])
         if np.any(empty):

@@ -12,10 +12,11 @@ import math
 
 import jax
 import jax.numpy as jnp
-from tofjax.schema import KEY_BY_DOTTED, float_leaf_names, suggest
+from tofjax.schema import KEY_BY_DOTTED, SWEEP_AXES, float_leaf_names, suggest
 
-#: Operating-point quantities: per-row inputs of a sweep file, never fitted.
-OPERATING_POINT = ("scene.distance_m", "scene.illuminance_lx", "scene.integration_time_s")
+#: Operating-point quantities: per-row inputs of a sweep file (the sensor's temperature included:
+#: a file's ``temperature_c`` column, or the configured one at every row), never fitted.
+OPERATING_POINT = tuple(axis.key for axis in SWEEP_AXES.values())
 
 
 def fittable_names() -> tuple[str, ...]:

@@ -135,8 +135,8 @@ class FileGroup(eqx.Module):
         """The operating points the model runs at: the files' own, each file's illuminance in lux
         of the group's lamp (module docstring); the data rows, and with ``dense`` the dense points."""
         n = self.sweep.samples if dense else self.n_data
-        d, e, t = (getattr(self.sweep, name)[:n] for name in OPERATING_POINT_COLUMNS)
-        return tj.Sweep.points("distance", d, e * self.lamp_scale[:n], t)
+        d, e, t, temperature = (getattr(self.sweep, name)[:n] for name in OPERATING_POINT_COLUMNS)
+        return tj.Sweep.points("distance", d, e * self.lamp_scale[:n], t, temperature)
 
 
 #: Free parameters that set the filter's band, and with it how the lamps' in-band photons per lux

@@ -26,9 +26,10 @@ import tofjax as tj
 from tofjax import stats
 from tofjax import sweepfile as sf
 from tofjax.outputs import write_npz
-from tofjax.schema import OPERATING_POINT_COLUMNS, SWEEPS
+from tofjax.schema import OPERATING_POINT_COLUMNS
 
 from ._interfaces import Frames, StageLimitError
+from ._settings import RECORDABLE_SWEEPS
 
 EXTRA_COLUMNS = ("stage_position_m", "requested_value", "elapsed_s")
 GRAY_COLUMNS = ("gray_value_mean", "gray_value_std")
@@ -51,8 +52,8 @@ class CampaignSettings:
     raw_dir: Path | None = None
 
     def __post_init__(self):
-        if self.sweep not in SWEEPS:
-            raise ValueError(f"sweep = {self.sweep!r} is not allowed: expected one of {', '.join(SWEEPS)}")
+        if self.sweep not in RECORDABLE_SWEEPS:
+            raise ValueError(f"sweep = {self.sweep!r} is not allowed: expected one of {', '.join(RECORDABLE_SWEEPS)}")
         for name, ok, allowed in (("samples", self.samples >= 1, "integer >= 1"),
                                   ("frames", self.frames >= 2, "integer >= 2"),
                                   ("roi", len(self.roi) == 2 and min(self.roi) >= 1, "W,H with W, H >= 1"),
@@ -188,7 +189,7 @@ def run_campaign(settings: CampaignSettings, *, stage, camera, lux, out: str | P
             if settings.raw_dir is not None:
                 write_npz(Path(settings.raw_dir) / f"point_{i:04d}.npz",
                           {"depth_m": frames.depth_m, "amplitude_lsb": frames.amplitude_lsb, "valid": frames.valid,
-                           **{k: row[k] for k in OPERATING_POINT_COLUMNS}},
+                           **{k: row[k] for k in OPERATING_POINT_COLUMNS if k in row}},
                           compressed=False)
             if gray:  # a gray value is not the model's amplitude: its own columns (module docstring)
                 row["gray_value_mean"], row["gray_value_std"] = row.pop("amplitude_mean_lsb"), row.pop(

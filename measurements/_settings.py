@@ -19,6 +19,11 @@ from tofjax.schema import KEY_BY_DOTTED, SWEEP_AXES, in_range, suggest
 
 from . import _registry as reg
 
+#: The sweeps a recording makes: the stage moves the target, the camera sets its exposure, the
+#: operator (or a virtual lamp) sets the background light. A sweep of the sensor's temperature needs a
+#: climate chamber, which no driver here controls.
+RECORDABLE_SWEEPS = tuple(name for name in SWEEP_AXES if name != "temperature")
+
 #: Frames x ROI pixels per point the virtual camera renders in memory at once (about 100 bytes each
 #: with the kept frames of the Monte Carlo: 0.4 GB).
 MAX_SAMPLES_PER_POINT = 2**22
@@ -76,7 +81,7 @@ def _opt(key, flag, kind, help, default=None, **kw) -> Option:
 
 OPTIONS: tuple[Option, ...] = (
     _opt("config", "--config", "path", "camera model configuration (TOML) of the virtual camera"),
-    _opt("sweep", "--sweep", "choice", "the swept quantity", choices=tuple(SWEEP_AXES)),
+    _opt("sweep", "--sweep", "choice", "the swept quantity", choices=RECORDABLE_SWEEPS),
     _opt("start", "--from", "float", "first point (m, s or lx; within the swept quantity's range)"),
     _opt("stop", "--to", "float", "last point (m, s or lx)"),
     _opt("samples", "--samples", "int", "number of points", lo=1, hi=1_000_000),

@@ -82,7 +82,7 @@ def test_predict_folds_the_compression_between_the_noise_and_the_adc():
     k = 0.2
     plain, compressed = tj.predict(_camera(0.0), NEAR), tj.predict(_camera(k), NEAR)
     chain = build_chain(_camera(0.0))
-    m = chain.moments(chain.expose(*NEAR.operating_points(chain.params.scene)))
+    m = chain.moments(chain.expose(*NEAR.operating_points(chain.params)))
     c = k / float(chain.limit.full_well_e) ** 2
     mu = np.asarray(m.diff)
     expected = chain.readout.linearize(jnp.asarray(mu - c * mu**3))[0]
@@ -123,6 +123,6 @@ def test_the_monte_carlo_says_which_stage_it_cannot_draw():
     compression = chain.stages[3]
     odd = chain.stages[:1] + (compression,) + chain.stages[1:3] + chain.stages[4:]
     odd_chain = tree_at(lambda c: c.stages, chain, odd)
-    q = chain.expose(*NEAR.operating_points(chain.params.scene))
+    q = chain.expose(*NEAR.operating_points(chain.params))
     with pytest.raises(NotImplementedError, match="the Monte Carlo draws noise, limit, noise"):
         odd_chain.drawn_moments(q)

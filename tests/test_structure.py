@@ -69,13 +69,14 @@ def test_the_sweep_axes_are_one_table_that_agrees_with_the_schema():
     from tofjax.schema import KEY_BY_DOTTED, OPERATING_POINT_COLUMNS, SWEEP_AXES, SWEEPS
 
     # A dict entry ("distance": ...) or a tuple of the names; not a comparison (sweep == "distance":).
-    table = re.compile(r'(^|[{,])\s*"(distance|illuminance|integration_time)"\s*:|\("distance", "illuminance"', re.M)
+    table = re.compile(r'(^|[{,])\s*"(distance|illuminance|integration_time|temperature)"\s*:|\("distance", "illuminance"',
+                       re.M)
     for pkg in PACKAGES:
         for path in sorted((ROOT / pkg).glob("*.py")):
             if path.name != "_schema.py":
                 assert not table.search(path.read_text()), f"{path.relative_to(ROOT)} writes a sweep-axis table"
-    assert SWEEPS == ("distance", "illuminance", "integration_time")
-    assert OPERATING_POINT_COLUMNS == ("distance_m", "illuminance_lx", "integration_time_s")
+    assert SWEEPS == ("distance", "illuminance", "integration_time", "temperature")
+    assert OPERATING_POINT_COLUMNS == ("distance_m", "illuminance_lx", "integration_time_s", "temperature_c")
     for name, axis in SWEEP_AXES.items():
         assert axis.name == name and KEY_BY_DOTTED[axis.key].unit == axis.unit
         for bound in axis.range_keys:

@@ -55,15 +55,14 @@ def moments(chain: Chain, sweep: Sweep, charges: TapCharges | None = None) -> Mo
     """The moments through the chain's stages (:meth:`tofjax.chain.Chain.moments`); ``charges``: the
     exposure's, if computed."""
     if charges is None:
-        d, ev, t = sweep.operating_points(chain.params.scene)
-        charges = chain.expose(d, ev, t)
+        charges = chain.expose(*sweep.operating_points(chain.params))
     return chain.moments(charges)
 
 
 def analytic(chain: Chain, sweep: Sweep, m: Moments | None = None) -> Result:
     """:func:`predict` on a built chain (module docstring); ``m``: its :func:`moments`, if computed."""
     params = chain.params
-    d, ev, t = sweep.operating_points(params.scene)
+    d, ev, t, temp = sweep.operating_points(params)
     m = moments(chain, sweep) if m is None else m
     charges, var_a, var_b, held_a, held_b, var_held = m.charges, m.var_a, m.var_b, m.a, m.b, m.var_diff
     code, u, slope_u = m.code, m.u, m.slope_u
@@ -91,7 +90,7 @@ def analytic(chain: Chain, sweep: Sweep, m: Moments | None = None) -> Result:
     breakdown = noise.breakdown(charges, jnp.sqrt(readout.quantization_variance_lsb2) * readout.lsb_e)
     return Result(
         method="analytic", sweep_variable=sweep.variable, n_frames=0,
-        sweep_values=sweep.values, distance_m=d, illuminance_lx=ev, integration_time_s=t,
+        sweep_values=sweep.values, distance_m=d, illuminance_lx=ev, integration_time_s=t, temperature_c=temp,
         unambiguity_range_m=chain.unambiguity_range_m,
         tap_a_e=held_a, tap_b_e=held_b, tap_a_v=tap_a_v, tap_b_v=tap_b_v, differential_v=tap_b_v - tap_a_v,
         code_mean=code, codes=None, phase_rad=None, depth_m=None, depth_unwrapped_m=None, amplitude_lsb=None,
@@ -156,8 +155,7 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None, patte
 @_jit.jit
 def _predict_exposure(params: Params, sweep: Sweep, smooth: Smooth | None, sample=None) -> tuple[Chain, TapCharges]:
     chain = build_chain(params, smooth, sweep.samples, sample)
-    d, ev, t = sweep.operating_points(params.scene)
-    return chain, chain.expose(d, ev, t)
+    return chain, chain.expose(*sweep.operating_points(params))
 
 
 @_jit.jit

@@ -121,11 +121,12 @@ class Chain(eqx.Module):
         return self.params.unambiguity_range_m
 
     def expose(self, distance_m: Float[Array, "*b"], illuminance_lx: Float[Array, "*b"],
-               integration_time_s: Float[Array, "*b"], dark_slopes_v_per_s=None) -> TapCharges:
-        """Expected tap charges at the operating points (:func:`tofjax._mixer.expose`), of the chain's
-        pixel sample if it has one."""
+               integration_time_s: Float[Array, "*b"], temperature_c: Float[Array, "*b"] | None = None,
+               dark_slopes_v_per_s=None) -> TapCharges:
+        """Expected tap charges at the operating points (:func:`tofjax._mixer.expose`; the arguments
+        are :meth:`tofjax.Sweep.operating_points`), of the chain's pixel sample if it has one."""
         return expose(self.params, self.correlation, distance_m, illuminance_lx, integration_time_s,
-                      dark_slopes_v_per_s, self.sample, self.drift)
+                      dark_slopes_v_per_s, self.sample, self.drift, temperature_c)
 
     def tap_volts(self, held_a: Array, held_b: Array) -> tuple[Array, Array]:
         """Tap voltages V = V_reset - n e / C_int of held charges."""

@@ -15,7 +15,9 @@ class TapCharges(eqx.Module):
     **Fields** (``*b`` is the batch shape of the operating points):
     - ``photo_a``, ``photo_b``: photo-electrons (signal and background) of tap A and B, ``(*b, phases)``;
     - ``dark_a``, ``dark_b``: dark electrons of each tap, ``(*b,)``;
-    - ``signal_e``, ``background_e``: active and background photo-electrons of the pixel (both taps).
+    - ``signal_e``, ``background_e``: active and background photo-electrons of the pixel (both taps);
+    - ``temperature_c``: the sensor's temperature at each operating point, ``(*b,)`` (a temperature
+      sweep: the kTC noise sources read it), or ``None``: the pixel's ``temperature_c``.
     """
 
     photo_a: Float[Array, "*b phases"]
@@ -24,6 +26,7 @@ class TapCharges(eqx.Module):
     dark_b: Float[Array, "*b"]
     signal_e: Float[Array, "*b"]
     background_e: Float[Array, "*b"]
+    temperature_c: Float[Array, "*b"] | None = None
 
     @property
     def a(self) -> Float[Array, "*b phases"]:
@@ -73,8 +76,9 @@ class Exposure(eqx.Module):
     dark_a_e: Float[Array, "rows cols"]
     dark_b_e: Float[Array, "rows cols"]
 
-    def charges(self) -> TapCharges:
-        """The taps' expected electrons: K N a_j plus half of (1 - K) N and of the background to
+    def charges(self, temperature_c: Float[Array, "*b"] | None = None) -> TapCharges:
+        """The taps' expected electrons (``temperature_c``: the sensor's, per point, for
+        :attr:`TapCharges.temperature_c`): K N a_j plus half of (1 - K) N and of the background to
         tap A, the rest of K N plus the same halves to tap B (Eqs 3.19-3.21), scaled by 1 +- e. A
         moving scene's ``signal_e`` has a phase axis (each phase image its own light); its charges'
         ``signal_e`` is then the mean over the phase images."""
@@ -87,4 +91,4 @@ class Exposure(eqx.Module):
         photo_a = (m + equal) * (1.0 + e)
         photo_b = (self.contrast * signal - m + equal) * (1.0 - e)
         mean_signal = jnp.mean(self.signal_e, axis=-1) if per_phase else self.signal_e
-        return TapCharges(photo_a, photo_b, self.dark_a_e, self.dark_b_e, mean_signal, self.background_e)
+        return TapCharges(photo_a, photo_b, self.dark_a_e, self.dark_b_e, mean_signal, self.background_e, temperature_c)

@@ -46,7 +46,7 @@ def _budget(params: Params, sweep: Sweep):
     acting (the estimate's premise), plus the readout's quantisation variance."""
     check_inputs(params, sweep)
     chain = build_chain(params, points=sweep.samples)
-    charges = chain.expose(*sweep.operating_points(params.scene))
+    charges = chain.expose(*sweep.operating_points(params))
     m = fold_moments(tuple(s for s in chain.stages if isinstance(s, Noise)), Moments.of(charges))
     readout = chain.readout
     quant_e2 = readout.quantization_variance_lsb2 * readout.lsb_e**2 if readout.dithered else 0.0

@@ -335,7 +335,7 @@ def summary(run, numbers: dict) -> Summary:
 
     lines.append(
         f"at the nominal point ({n['nominal_distance_m']:.3g} m, {n['nominal_illuminance_lx']:.3g} lx, "
-        f"{1e3 * n['nominal_integration_time_s']:.3g} ms): depth noise {1e3 * n['nominal_depth_std_m']:.3g} mm "
+        f"{1e3 * n['nominal_integration_time_s']:.3g} ms, {n['nominal_temperature_c']:.3g} °C): depth noise {1e3 * n['nominal_depth_std_m']:.3g} mm "
         f"({100 * n['nominal_relative_depth_std']:.2g} %), amplitude {n['nominal_amplitude_lsb']:.4g} LSB. "
         f"Valid from: {at('valid_from_m', 'm')}; 1 % depth noise at: {at('relative_noise_1pct_at_m', 'm')}; "
         f"2 % at: {at('relative_noise_2pct_at_m', 'm')}; SBI engages at: {at('sbi_engages_at_lx', 'lx')}; "

@@ -34,18 +34,24 @@ def axis_etendue_m2_sr(params: Params, settings: FrameSettings) -> Array:
     return pixel_etendue_m2_sr(params, settings, PixelField(one, 0.0 * one))
 
 
-def phase_drift_periods(pixel) -> Float[Array, ""]:
+def phase_drift_periods(pixel, temperature_c=None) -> Float[Array, "*b"]:
     """The demodulation phase's drift with the sensor's temperature, in periods: k (T - T_ref) / 2 pi
     (``pixel.phase_drift_rad_per_c``, from ``pixel.dark_reference_temperature_c``); it adds to every
-    light's delay, as a pixel's phase offset does (docs/model.md, "Dark current and temperature")."""
-    return pixel.phase_drift_rad_per_c * (pixel.temperature_c - pixel.dark_reference_temperature_c) / (2.0 * jnp.pi)
+    light's delay, as a pixel's phase offset does (docs/model.md, "Dark current and temperature").
+    ``temperature_c``: the sensor's temperature per operating point (``None``: ``pixel.temperature_c``)."""
+    t = pixel.temperature_c if temperature_c is None else temperature_c
+    return pixel.phase_drift_rad_per_c * (t - pixel.dark_reference_temperature_c) / (2.0 * jnp.pi)
 
 
 def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*b"],
            illuminance_lx: Float[Array, "*b"], integration_time_s: Float[Array, "*b"],
            dark_slopes_v_per_s: tuple[Array, Array] | None = None, sample: PixelPattern | None = None,
-           drift: Correlation | None = None) -> TapCharges:
+           drift: Correlation | None = None, temperature_c: Float[Array, "*b"] | None = None) -> TapCharges:
     """Expected tap electrons at every operating point (module docstring).
+
+    ``temperature_c``: the sensor's temperature at each point (a temperature sweep; ``None``:
+    ``pixel.temperature_c``): it sets the dark current, the phase drift, and travels with the charges
+    to the kTC noise sources (:class:`tofjax._noise.AbstractThermalNoise`).
 
     ``drift``: the correlation's antiderivative, given when ``interference.enabled``: the interfering
     camera's light is added (:mod:`tofjax._interference`).
@@ -66,16 +72,16 @@ def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*
     signal = radiance * active_e_per_radiance(params, etendue, integration_time_s)
     background = reflectivity * background_e_per_reflectivity(params, etendue, illuminance_lx, integration_time_s)
     # The reflected phase 2 pi f path / c (Eq 3.22: 4 pi f d / c on the axis) in periods.
-    warm = phase_drift_periods(params.pixel)  # the temperature's phase drift, on every light
+    warm = phase_drift_periods(params.pixel, temperature_c)  # the temperature's phase drift, on every light
     delay = params.illumination_waveform.modulation_frequency_hz * path_m / consts.speed_of_light_m_per_s + warm
     if sample is not None:  # the pixel's demodulation phase offset, as a frame's pixel has it
         delay = delay + sample.phase_offset_rad / (2.0 * jnp.pi)
     contrast = params.pixel.demodulation_contrast
     if dark_slopes_v_per_s is None:
-        dark_a = dark_b = dark_electrons(params.pixel, integration_time_s, consts)
+        dark_a = dark_b = dark_electrons(params.pixel, integration_time_s, consts, temperature_c=temperature_c)
     else:
-        dark_a = dark_electrons(params.pixel, integration_time_s, consts, dark_slopes_v_per_s[0])
-        dark_b = dark_electrons(params.pixel, integration_time_s, consts, dark_slopes_v_per_s[1])
+        dark_a = dark_electrons(params.pixel, integration_time_s, consts, dark_slopes_v_per_s[0], temperature_c)
+        dark_b = dark_electrons(params.pixel, integration_time_s, consts, dark_slopes_v_per_s[1], temperature_c)
     modulated = contrast * signal[..., None] * correlation(delay)
     if drift is not None:  # another camera's light (tofjax._interference)
         from . import _interference as interference
@@ -91,4 +97,4 @@ def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*
         modulated = modulated + contrast * signal_i[..., None] * fractions
         signal = signal + signal_i
     asymmetry = jnp.zeros(()) if sample is None else sample.tap_asymmetry
-    return Exposure(modulated, signal, background, contrast, asymmetry, dark_a, dark_b).charges()
+    return Exposure(modulated, signal, background, contrast, asymmetry, dark_a, dark_b).charges(temperature_c)

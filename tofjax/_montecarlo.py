@@ -68,8 +68,8 @@ class Prepared(eqx.Module):
 
 
 def prepare(chain: Chain, sweep: Sweep, dark_slopes_v_per_s=None) -> Prepared:
-    d, ev, t = sweep.operating_points(chain.params.scene)
-    charges = chain.expose(d, ev, t, dark_slopes_v_per_s)
+    d, ev, t, temp = sweep.operating_points(chain.params)
+    charges = chain.expose(d, ev, t, temp, dark_slopes_v_per_s)
     flat = jax.tree_util.tree_map(lambda x: x.reshape((-1,) + x.shape[d.ndim:]), charges)
     n_points = flat.signal_e.shape[0]
     return Prepared(charges, point_constants(chain, flat, jnp.arange(n_points, dtype=jnp.uint32)))
@@ -112,7 +112,7 @@ def frames_step(chain: Chain, words, stream: int = 0, raw: bool = False) -> Fram
 
 def assemble(chain: Chain, sweep: Sweep, prepared: Prepared, sums: Sums, kept, iterations: int) -> Result:
     """The :class:`tofjax.Result` of a Monte Carlo run from its per-point sums and kept frames."""
-    d, ev, t = sweep.operating_points(chain.params.scene)
+    d, ev, t, temp = sweep.operating_points(chain.params)
     shape = d.shape
     charges, consts = prepared.charges, prepared.consts
     mean_phase, std_phase, amp_mean, amp_std = frame_statistics(consts, sums, iterations)
@@ -136,7 +136,7 @@ def assemble(chain: Chain, sweep: Sweep, prepared: Prepared, sums: Sums, kept, i
         frames = dict(codes=None, phase_rad=None, depth_m=None, depth_unwrapped_m=None, amplitude_lsb=None, valid=None)
     return Result(
         method="mc", sweep_variable=sweep.variable, n_frames=iterations,
-        sweep_values=sweep.values, distance_m=d, illuminance_lx=ev, integration_time_s=t,
+        sweep_values=sweep.values, distance_m=d, illuminance_lx=ev, integration_time_s=t, temperature_c=temp,
         unambiguity_range_m=chain.unambiguity_range_m,
         tap_a_e=held_a, tap_b_e=held_b, tap_a_v=tap_a_v, tap_b_v=tap_b_v, differential_v=tap_b_v - tap_a_v,
         code_mean=points(jnp.moveaxis(sums.codes, 0, -1) / float(iterations)), **frames,

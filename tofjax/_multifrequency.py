@@ -187,7 +187,7 @@ def _predict(params, sweep, freqs, extended, ranges, fusion, smooth) -> MultiFre
     ok = jnp.all(jnp.isfinite(phases), axis=0)
     mean = unwrap_frequencies(jnp.where(ok, phases, 0.0), ranges_np, extended, jnp.where(ok, weights, 1.0))
     valid = jnp.all(per.valid_fraction > 0, axis=0)
-    d = sweep.operating_points(params.scene)[0]
+    d = sweep.operating_points(params)[0]
     return MultiFrequencyResult(
         frequencies_hz=freqs, extended_range_m=jnp.asarray(extended), distance_m=d, per_frequency=per,
         depth_m=None, valid=None, wrong_unwrap=None, depth_mean_m=jnp.where(ok, mean, jnp.nan),
@@ -280,7 +280,7 @@ def _setup(params, sweep, key, freqs, extended, ranges, fusion, raw=False):
     else:
         weights = fusion_weights(jnp.ones((n_freq, sweep.samples)), ranges, fusion)
     words = key_words(jr.split(key)[1])
-    d = sweep.operating_points(params.scene)[0]
+    d = sweep.operating_points(params)[0]
     truth = jnp.mod(d.reshape(-1), extended)
     # Centre of the combined statistics: the noise-free frames' unwrapped distance.
     reference = unwrap_frequencies(jnp.mod(prepared.consts.ref_phase, 2.0 * jnp.pi), ranges, extended, weights)
@@ -294,7 +294,7 @@ def _finish(params, sweep, iterations, freqs, extended, fusion, chains, prepared
     per_sums, combined = sums
     kept_f = None if kept is None else jax.tree_util.tree_map(lambda x: jnp.moveaxis(x, 1, 0), kept[0])
     per = jax.vmap(lambda ch, p, s, k: assemble(ch, sweep, p, s, k, iterations))(chains, prepared, per_sums, kept_f)
-    d = sweep.operating_points(params.scene)[0]
+    d = sweep.operating_points(params)[0]
     shape = d.shape
     points = lambda x: x.reshape(shape + x.shape[1:])  # noqa: E731
     mean_dev, sd_dev, enough = sample_mean_std(combined.good, combined.dev, combined.dev2)

@@ -56,38 +56,42 @@ BEFORE_LIMIT = "before_limit"
 AFTER_LIMIT = "after_limit"
 
 
-def _kelvin(pixel: Pixel) -> Array:
-    return pixel.temperature_c + const.ZERO_CELSIUS_K
+def _kelvin(temperature_c: Array) -> Array:
+    return temperature_c + const.ZERO_CELSIUS_K
 
 
 def reset_noise_e(pixel: Pixel, constants: PhysicalConstants) -> Float[Array, ""]:
     """Reset (kTC) noise of one tap, electrons rms: sqrt(k T C_int) / e (Eqs 2.21-2.22)."""
     c = pixel.integration_capacitance_f
-    return jnp.sqrt(constants.boltzmann_j_per_k * _kelvin(pixel) * c) / constants.elementary_charge_c
+    return jnp.sqrt(constants.boltzmann_j_per_k * _kelvin(pixel.temperature_c) * c) / constants.elementary_charge_c
 
 
 def hold_noise_e(pixel: Pixel, constants: PhysicalConstants) -> Float[Array, ""]:
     """Sample-and-hold (kTC) noise of one tap, in electrons at the integration node, rms."""
-    v = jnp.sqrt(constants.boltzmann_j_per_k * _kelvin(pixel) / pixel.c_sample_and_hold_f)
+    v = jnp.sqrt(constants.boltzmann_j_per_k * _kelvin(pixel.temperature_c) / pixel.c_sample_and_hold_f)
     return v * pixel.integration_capacitance_f / constants.elementary_charge_c
 
 
-def dark_current_factor(pixel: Pixel) -> Float[Array, ""]:
+def dark_current_factor(pixel: Pixel, temperature_c: Array | None = None) -> Float[Array, "*b"]:
     """The dark current at the sensor's temperature over that at the dark slopes' reference
     temperature: 2^((T - T_ref) / T_2), the dark current doubling every T_2 ("the dark current can
     double for every 5 °C ... 8 °C temperature increase": A. Theuwissen, Harvest Imaging blog,
     September 2009, harvestimaging.com/blog/?m=200909; docs/model.md, "Noise"). Exactly 1 at the
-    reference temperature."""
-    return 2.0 ** ((pixel.temperature_c - pixel.dark_reference_temperature_c) / pixel.dark_doubling_temperature_c)
+    reference temperature. ``temperature_c``: the sensor's temperature per operating point (``None``:
+    ``pixel.temperature_c``)."""
+    t = pixel.temperature_c if temperature_c is None else temperature_c
+    return 2.0 ** ((t - pixel.dark_reference_temperature_c) / pixel.dark_doubling_temperature_c)
 
 
 def dark_electrons(
-    pixel: Pixel, integration_time_s: Float[Array, "*b"], constants: PhysicalConstants, slope_v_per_s=None
+    pixel: Pixel, integration_time_s: Float[Array, "*b"], constants: PhysicalConstants, slope_v_per_s=None,
+    temperature_c: Array | None = None,
 ) -> Float[Array, "*b"]:
     """Mean dark electrons of one tap: slope t C_int / e (§4.2.14), the slope (the mean's, or a
-    pixel's own from the fixed pattern) scaled to the sensor's temperature (:func:`dark_current_factor`)."""
+    pixel's own from the fixed pattern) scaled to the sensor's temperature (:func:`dark_current_factor`;
+    ``temperature_c`` per operating point, ``None``: ``pixel.temperature_c``)."""
     slope = pixel.dark_slope_mean_v_per_s if slope_v_per_s is None else slope_v_per_s
-    slope = slope * dark_current_factor(pixel)
+    slope = slope * dark_current_factor(pixel, temperature_c)
     return slope * integration_time_s * pixel.integration_capacitance_f / constants.elementary_charge_c
 
 
@@ -152,30 +156,47 @@ class AbstractConstantNoise(AbstractNoiseSource):
         return self.sigma_e**2, self.sigma_e**2
 
 
-class ResetNoise(AbstractConstantNoise):
+class AbstractThermalNoise(AbstractConstantNoise):
+    """A kTC source: ``sigma_e`` at the pixel's temperature ``temperature_k``; its variance k T C / e^2
+    is proportional to the absolute temperature, so at operating points of their own temperature
+    (:attr:`tofjax._charges.TapCharges.temperature_c`, a temperature sweep) it scales by T / T_pixel
+    (exactly 1 at the pixel's own)."""
+
+    temperature_k: eqx.AbstractVar[Float[Array, ""]]
+
+    def variance_e2(self, charges: TapCharges) -> tuple[Array, Array]:
+        var = self.sigma_e**2
+        if charges.temperature_c is not None:
+            var = var * (_kelvin(charges.temperature_c) / self.temperature_k)[..., None]
+        return var, var
+
+
+class ResetNoise(AbstractThermalNoise):
     """kTC noise of the reset on the integration capacitance (Eqs 2.21-2.22)."""
 
     name: ClassVar[str] = "reset"
     node: ClassVar[str] = BEFORE_LIMIT
     read: ClassVar[bool] = True
     sigma_e: Float[Array, ""]
+    temperature_k: Float[Array, ""]
 
     @classmethod
     def from_params(cls, params: Params) -> ResetNoise:
-        return cls(reset_noise_e(params.pixel, params.constants))
+        return cls(reset_noise_e(params.pixel, params.constants), _kelvin(params.pixel.temperature_c))
 
 
-class HoldNoise(AbstractConstantNoise):
+class HoldNoise(AbstractThermalNoise):
     """kTC noise of the sample-and-hold, on the held charge (§4.2.12)."""
 
     name: ClassVar[str] = "hold"
     node: ClassVar[str] = AFTER_LIMIT
     read: ClassVar[bool] = True
     sigma_e: Float[Array, ""]
+    temperature_k: Float[Array, ""]
 
     @classmethod
     def from_params(cls, params: Params) -> HoldNoise:
-        return cls(hold_noise_e(params.pixel, params.constants))
+        return cls(hold_noise_e(params.pixel, params.constants), _kelvin(params.pixel.temperature_c))
 
 
 class ReadoutNoise(AbstractConstantNoise):

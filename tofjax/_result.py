@@ -105,6 +105,7 @@ class Result(eqx.Module):
     distance_m: Float[Array, "*b"]
     illuminance_lx: Float[Array, "*b"]
     integration_time_s: Float[Array, "*b"]
+    temperature_c: Float[Array, "*b"]
     unambiguity_range_m: Float[Array, ""]
     tap_a_e: Float[Array, "*b phases"]
     tap_b_e: Float[Array, "*b phases"]

@@ -94,11 +94,11 @@ def fixed_pattern_problem(config: Config, method: str) -> str | None:
 def multifrequency_columns(mf: MultiFrequencyResult) -> dict:
     """Sweep-file columns of a multi-frequency run: combined depth statistics, the first frequency's
     amplitude, the wrong-unwrap fraction and each frequency's own depth noise."""
+    from .sweepfile import operating_point_columns
+
     primary = mf.per_frequency
     cols = {
-        "distance_m": primary.distance_m[0], "integration_time_s": primary.integration_time_s[0],
-        "illuminance_lx": primary.illuminance_lx[0], "n_frames": np.full(primary.distance_m.shape[1],
-                                                                         float(primary.n_frames)),
+        **operating_point_columns(primary, 0), "n_frames": np.full(primary.distance_m.shape[1], float(primary.n_frames)),
         "depth_mean_m": mf.depth_mean_m, "depth_std_m": mf.depth_std_m,
         "amplitude_mean_lsb": primary.amplitude_mean_lsb[0], "amplitude_std_lsb": primary.amplitude_std_lsb[0],
         "valid_fraction": mf.valid_fraction, "wrong_unwrap_fraction": mf.wrong_unwrap_fraction,

@@ -38,7 +38,9 @@ class SweepAxis:
     field of :class:`tofjax.Scene`, :class:`tofjax.Sweep` and :class:`tofjax.Result`, and the sweep
     file's column); ``unit`` (SI, of the values everywhere: configuration, files, ``--from``);
     ``label`` (words for axes and tables); ``display_unit`` and ``display_scale`` (what plots and
-    tables show: SI value x scale); ``title`` (the thesis GUI's name, §4.3)."""
+    tables show: SI value x scale); ``title`` (the thesis GUI's name, §4.3); ``section`` (the
+    configuration section of the nominal value: ``scene``, or ``pixel`` for the sensor's
+    temperature)."""
 
     name: str
     column: str
@@ -47,16 +49,19 @@ class SweepAxis:
     display_unit: str
     display_scale: float
     title: str
+    section: str = "scene"
 
     @property
     def key(self) -> str:
-        """The configuration key of the nominal value, ``scene.<column>`` (its range bounds the sweep)."""
-        return f"scene.{self.column}"
+        """The configuration key of the nominal value, ``<section>.<column>`` (its range bounds the sweep)."""
+        return f"{self.section}.{self.column}"
 
     @property
     def range_keys(self) -> tuple[str, str]:
-        """The ``[scene]`` keys of the configured sweep's start and end (``distance_from_m``, ...)."""
-        return f"{self.name}_from_{self.unit}", f"{self.name}_to_{self.unit}"
+        """The ``[scene]`` keys of the configured sweep's start and end (``distance_from_m``, ...,
+        ``temperature_from_c``): the name, ``from``/``to`` and the column's unit suffix."""
+        suffix = self.column[len(self.name) + 1:]
+        return f"{self.name}_from_{suffix}", f"{self.name}_to_{suffix}"
 
     @property
     def axis_label(self) -> str:
@@ -70,9 +75,10 @@ SWEEP_AXES: dict[str, SweepAxis] = {a.name: a for a in (
     SweepAxis("illuminance", "illuminance_lx", "lx", "background illuminance", "lx", 1.0, "Background light"),
     SweepAxis("integration_time", "integration_time_s", "s", "integration time per phase image", "ms", 1e3,
               "Integration time"),
+    SweepAxis("temperature", "temperature_c", "degC", "sensor temperature", "°C", 1.0, "Temperature", "pixel"),
 )}
 SWEEPS = tuple(SWEEP_AXES)
-#: The operating point's columns (every sweep sets all three), in the axes' order.
+#: The operating point's columns (every sweep sets all four), in the axes' order.
 OPERATING_POINT_COLUMNS = tuple(a.column for a in SWEEP_AXES.values())
 
 
@@ -171,6 +177,10 @@ KEYS: tuple[Key, ...] = (
     _k("scene", "integration_time_from_s", "float", 0.2e-3, "s", "integration time sweep start",
        0.0, 1.0, lo_open=True),
     _k("scene", "integration_time_to_s", "float", 5e-3, "s", "integration time sweep end", 0.0, 1.0, lo_open=True),
+    _k("scene", "temperature_from_c", "float", 0.0, "degC", "sensor temperature sweep start", -273.15, 200.0,
+       lo_open=True),
+    _k("scene", "temperature_to_c", "float", 70.0, "degC", "sensor temperature sweep end", -273.15, 200.0,
+       lo_open=True),
     _k("scene", "samples", "int", 1000, "1", "number of sweep samples", 1, 1_000_000),
     # --- [camera]  thesis Table 4.4
     _k("camera", "k_lens", "float", 0.9, "1", "transmission of lens and filter (1 = lossless)", 0.0, 1.0, lo_open=True),

@@ -1,5 +1,6 @@
 """Operating points: sweeps over distance, background illuminance or integration time (thesis
-§4.2.1.3), and any batch of them (an image of distances)."""
+§4.2.1.3) or the sensor's temperature (§6.1.2's future work), and any batch of them (an image of
+distances)."""
 
 from __future__ import annotations
 
@@ -11,10 +12,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ._params import Params, Scene
+from ._params import Params
 from ._schema import KEY_BY_DOTTED, OPERATING_POINT_COLUMNS, SWEEP_AXES, SWEEPS, check_array, suggest
-
-#: Sweep variable -> the scene field it replaces.
 
 
 def _f64(x):
@@ -26,19 +25,21 @@ def _optional_f64(x):
 
 
 class Sweep(eqx.Module):
-    """The values of one swept quantity; the other two stay at the scene's nominal values unless
-    given per point (as in a measured file, where each row records all three).
+    """The values of one swept quantity; the others stay at the camera's nominal values unless
+    given per point (as in a measured file, where each row records its operating point).
 
     The values may have any shape (``*b``): a 1-D sweep, or e.g. a 2-D image of distances (one
     per pixel); every result field then has that leading shape.
 
     **Fields:**
-    - ``variable``: ``"distance"`` (m), ``"illuminance"`` (lx) or ``"integration_time"`` (s); static.
-    - ``values``: the values, shape ``(*b)``, in SI units; traced, so a gradient with respect to
-      e.g. the distance is available.
-    - ``distance_m``, ``illuminance_lx``, ``integration_time_s``: optional per-point values of
-      the quantities that are not swept (``None``: the scene's nominal value), shape ``(*b)``. Use
-      :meth:`Sweep.points` to build a sweep from three columns.
+    - ``variable``: ``"distance"`` (m), ``"illuminance"`` (lx), ``"integration_time"`` (s) or
+      ``"temperature"`` (the sensor's, °C); static (:data:`tofjax.schema.SWEEP_AXES`).
+    - ``values``: the values, shape ``(*b)``, in SI units (°C for the temperature); traced, so a
+      gradient with respect to e.g. the distance is available.
+    - ``distance_m``, ``illuminance_lx``, ``integration_time_s``, ``temperature_c``: optional
+      per-point values of the quantities that are not swept (``None``: the camera's nominal value,
+      ``scene.<column>`` or ``pixel.temperature_c``), shape ``(*b)``. Use :meth:`Sweep.points` to
+      build a sweep from the operating point's columns.
     """
 
     variable: str = eqx.field(static=True)
@@ -46,6 +47,7 @@ class Sweep(eqx.Module):
     distance_m: Float[Array, "*b"] | None = eqx.field(default=None, converter=_optional_f64)
     illuminance_lx: Float[Array, "*b"] | None = eqx.field(default=None, converter=_optional_f64)
     integration_time_s: Float[Array, "*b"] | None = eqx.field(default=None, converter=_optional_f64)
+    temperature_c: Float[Array, "*b"] | None = eqx.field(default=None, converter=_optional_f64)
 
     def __check_init__(self):
         if self.variable not in SWEEPS:
@@ -56,19 +58,22 @@ class Sweep(eqx.Module):
         if self.values.ndim < 1 or self.values.size < 1:
             raise ValueError(f"sweep values must be a non-empty array of at least one dimension, got shape "
                              f"{self.values.shape}")
-        check_array("scene", SWEEP_AXES[self.variable].column, self.values)
-        for name in OPERATING_POINT_COLUMNS:
-            column = getattr(self, name)
+        axis = SWEEP_AXES[self.variable]
+        check_array(axis.section, axis.column, self.values)
+        for axis in SWEEP_AXES.values():
+            column = getattr(self, axis.column)
             if column is None:
                 continue
             if column.shape != self.values.shape:
-                raise ValueError(f"sweep {name} has shape {column.shape}, the sweep values {self.values.shape}")
-            check_array("scene", name, column)
+                raise ValueError(f"sweep {axis.column} has shape {column.shape}, the sweep values {self.values.shape}")
+            check_array(axis.section, axis.column, column)
 
     @classmethod
-    def points(cls, variable: str, distance_m, illuminance_lx, integration_time_s) -> Sweep:
-        """A sweep whose every point sets all three operating-point quantities."""
-        columns = {"distance_m": distance_m, "illuminance_lx": illuminance_lx, "integration_time_s": integration_time_s}
+    def points(cls, variable: str, distance_m, illuminance_lx, integration_time_s, temperature_c=None) -> Sweep:
+        """A sweep whose every point sets the operating-point quantities (``temperature_c``
+        ``None``: the pixel's ``temperature_c`` at every point)."""
+        columns = {"distance_m": distance_m, "illuminance_lx": illuminance_lx, "integration_time_s": integration_time_s,
+                   "temperature_c": temperature_c}
         if variable not in SWEEP_AXES:
             raise ValueError(f"sweep = {variable!r} is not allowed: expected one of "
                              + ", ".join(repr(s) for s in SWEEPS) + suggest(variable, SWEEPS))
@@ -94,8 +99,10 @@ class Sweep(eqx.Module):
         """The number of operating points."""
         return math.prod(self.values.shape)
 
-    def operating_points(self, scene: Scene) -> tuple[Array, Array, Array]:
-        """(distance_m, illuminance_lx, integration_time_s), each of the sweep's shape."""
+    def operating_points(self, params: Params) -> tuple[Array, Array, Array, Array]:
+        """(distance_m, illuminance_lx, integration_time_s, temperature_c), each of the sweep's
+        shape: the swept values, the per-point columns given, and ``params``' nominal values
+        (``scene.distance_m``, ..., ``pixel.temperature_c``) for the rest."""
         out = []
         for variable, axis in SWEEP_AXES.items():
             name = axis.column
@@ -105,7 +112,7 @@ class Sweep(eqx.Module):
             elif given is not None:
                 out.append(given)
             else:
-                out.append(jnp.broadcast_to(getattr(scene, name), self.values.shape))
+                out.append(jnp.broadcast_to(getattr(getattr(params, axis.section), name), self.values.shape))
         return tuple(out)
 
 
@@ -156,8 +163,7 @@ def pad_sweep(sweep: Sweep) -> Sweep:
         host = np.asarray(x)
         return _on_device_of(x, np.concatenate([host, np.repeat(host[-1:], extra)]))
 
-    return Sweep(sweep.variable, pad(sweep.values), pad(sweep.distance_m), pad(sweep.illuminance_lx),
-                 pad(sweep.integration_time_s))
+    return Sweep(sweep.variable, pad(sweep.values), **{name: pad(getattr(sweep, name)) for name in OPERATING_POINT_COLUMNS})
 
 
 def unpad(tree, sweep: Sweep, padded: Sweep):

@@ -166,14 +166,15 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     sim = sub.add_parser("simulate", help="run a sweep and write a tofjax-sweep CSV",
-                         description="Run a sweep over distance, background illuminance or integration time "
-                                     "and write the tofjax-sweep CSV. Sweep ranges, samples and iterations "
+                         description="Run a sweep over distance, background illuminance, integration time or "
+                                     "the sensor's temperature and write the tofjax-sweep CSV. Sweep ranges, samples and iterations "
                                      "default to the configuration ([scene] *_from/*_to, samples; "
                                      "[pixel] iterations).")
     sim.add_argument("--config", type=Path, help="TOML configuration (default: built-in defaults)")
     sim.add_argument("--sweep", required=True, choices=SWEEPS, help="the swept quantity")
-    sim.add_argument("--from", dest="start", type=finite_float, help="sweep start, SI units (m, lx, s)")
-    sim.add_argument("--to", dest="stop", type=finite_float, help="sweep end, SI units (m, lx, s)")
+    units = ", ".join(axis.unit for axis in SWEEP_AXES.values())
+    sim.add_argument("--from", dest="start", type=finite_float, help=f"sweep start, SI units ({units})")
+    sim.add_argument("--to", dest="stop", type=finite_float, help=f"sweep end, SI units ({units})")
     sim.add_argument("--samples", type=positive_int, help="number of sweep samples")
     sim.add_argument("--iterations", type=positive_int, help="Monte Carlo frames per sample")
     sim.add_argument("--method", choices=("mc", "analytic"), default="mc",

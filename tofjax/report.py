@@ -196,7 +196,7 @@ def headlines(params, result) -> dict:
     at = lambda field, lo, hi: np.asarray(getattr(all_scans, field))[lo:hi]  # noqa: E731
     out = {
         "nominal_distance_m": nominal_d, "nominal_illuminance_lx": nominal_lux,
-        "nominal_integration_time_s": nominal_t,
+        "nominal_integration_time_s": nominal_t, "nominal_temperature_c": float(params.pixel.temperature_c),
         "nominal_depth_std_m": float(at("depth_std_m", 0, 1)[0]),
         "nominal_relative_depth_std": float(at("depth_std_m", 0, 1)[0] / nominal_d),
         "nominal_amplitude_lsb": float(at("amplitude_mean_lsb", 0, 1)[0]),
@@ -271,7 +271,8 @@ def write_report(directory, config, result, elapsed_s: float, csv_path, multifre
     rows = [
         ("depth noise at the nominal point", f"{_fmt(h['nominal_depth_std_m'], 'mm', 1e3)} "
          f"({_fmt(h['nominal_relative_depth_std'], '%', 100)}) at {h['nominal_distance_m']:g} m, "
-         f"{h['nominal_illuminance_lx']:g} lx, {h['nominal_integration_time_s'] * 1e3:g} ms"),
+         f"{h['nominal_illuminance_lx']:g} lx, {h['nominal_integration_time_s'] * 1e3:g} ms, "
+         f"{h['nominal_temperature_c']:g} °C"),
         ("amplitude at the nominal point", _fmt(h["nominal_amplitude_lsb"], "LSB")),
         ("valid data from (short-range saturation below)", _fmt(h["valid_from_m"], "m")),
         ("relative depth noise reaches 1 %", _fmt(h["relative_noise_1pct_at_m"], "m")),

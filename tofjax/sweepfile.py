@@ -13,7 +13,8 @@ Layout (UTF-8)::
     0.45,0.002,20.0,2000,0.4454,0.0021,...
 
 - The first line names the format and its version; a reader refuses versions it does not know.
-  This reader reads versions 1 and 2; writers write version 1 unless the file needs version 2.
+  This reader reads versions 1, 2 and 3; writers write the oldest version that holds the file
+  (:func:`needed_format`).
 - Version 2 (a backward-compatible addition: every version-1 file is a valid version-2 file in
   meaning) allows what a version-1 reader would misread, so such files say ``tofjax-sweep/2``:
   - observable columns may be absent: a depth-only file (published depth-noise data) has no
@@ -27,8 +28,14 @@ Layout (UTF-8)::
     ``inverse_variance``);
   - ``integration_time_per``: what ``integration_time_s`` counts, ``phase_image`` (default, the
     model's unit), ``frequency`` (all phase images of one frequency) or ``frame`` (all of a frame).
+- Version 3 (again backward-compatible) adds the sensor's temperature as an operating-point
+  quantity:
+  - an optional column ``temperature_c``: the sensor's temperature at each row, °C (a reader of
+    version 2 would ignore it and take the configured one); absent, every row is at the model's
+    ``pixel.temperature_c``;
+  - ``sweep: temperature``: a sweep of the sensor's temperature, whose file must have the column.
 - Metadata keys are lower-case identifiers; values run to the end of the line. Required:
-  ``sweep`` (distance | illuminance | integration_time), ``source`` (simulation | measurement),
+  ``sweep`` (distance | illuminance | integration_time | temperature), ``source`` (simulation | measurement),
   ``modulation_frequency_hz``, ``n_phases``, ``created_utc`` (ISO 8601).
 - The header names the columns (each once); the required ones are :data:`REQUIRED_COLUMNS`,
   others (e.g. the simulation's noise breakdown) may follow. Cells are plain decimal numbers
@@ -57,12 +64,14 @@ import numpy as np
 from ._schema import EXPOSURE_DEFINITIONS, FUSIONS, SWEEP_AXES, SWEEPS
 
 FORMAT_NAME = "tofjax-sweep"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 FORMAT = f"{FORMAT_NAME}/{FORMAT_VERSION}"
-#: The versions this reader reads.
-FORMATS = (f"{FORMAT_NAME}/1", FORMAT)
+#: The versions this reader reads, oldest first.
+FORMATS = (f"{FORMAT_NAME}/1", f"{FORMAT_NAME}/2", FORMAT)
 #: Version-1 format line (what writers write when a file needs nothing of version 2).
 FORMAT_V1 = FORMATS[0]
+#: Version-2 format line (what writers write when a file needs version 2 but nothing of version 3).
+FORMAT_V2 = FORMATS[1]
 REQUIRED_METADATA = ("sweep", "source", "modulation_frequency_hz", "n_phases", "created_utc")
 REQUIRED_COLUMNS = (
     "distance_m", "integration_time_s", "illuminance_lx", "n_frames", "depth_mean_m", "depth_std_m",
@@ -74,6 +83,9 @@ REQUIRED_COLUMNS_V2 = ("distance_m", "integration_time_s", "illuminance_lx", "n_
 OBSERVABLE_COLUMNS = ("depth_std_m", "depth_mean_m", "amplitude_mean_lsb")
 #: Metadata a version-1 file may not carry (a version-1 reader would ignore it and misread the file).
 V2_METADATA = ("modulation_frequencies_hz", "frequency_fusion", "integration_time_per")
+#: The sweeps and columns a version-1 or -2 file may not have (such a reader would misread it).
+V3_SWEEPS = ("temperature",)
+V3_COLUMNS = ("temperature_c",)
 SWEEP_NAMES = SWEEPS
 SOURCES = ("simulation", "measurement")
 _KEY = re.compile(r"[a-z][a-z0-9_.]*\Z")
@@ -172,11 +184,14 @@ def _check_metadata(path, metadata: Mapping[str, str], lines: Mapping[str, int])
         _dt.datetime.fromisoformat(metadata["created_utc"])
     except ValueError:
         fail("created_utc", f"created_utc = {metadata['created_utc']!r} is not an ISO 8601 time")
+    if metadata.get("format") in (FORMAT_V1, FORMAT_V2) and metadata["sweep"] in V3_SWEEPS:
+        fail("sweep", f"sweep = {metadata['sweep']!r} needs format {FORMAT}: write \"# format: {FORMAT}\" on the "
+                      "first line")
     if metadata.get("format") == FORMAT_V1:
         for key in V2_METADATA:
             if key in metadata:
-                fail(key, f"metadata {key} needs format {FORMAT} (a {FORMAT_V1} reader would ignore it): write "
-                          f'"# format: {FORMAT}" on the first line')
+                fail(key, f"metadata {key} needs format {FORMAT_V2} (a {FORMAT_V1} reader would ignore it): write "
+                          f'"# format: {FORMAT_V2}" on the first line')
     if "modulation_frequencies_hz" in metadata:
         text = metadata["modulation_frequencies_hz"]
         try:
@@ -260,9 +275,18 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>", *, allow_empty:
             raise SweepFileError(path, header_line, _column(lines[i], j), f"column {name!r} appears twice")
     missing = [c for c in (REQUIRED_COLUMNS if version == FORMAT_V1 else REQUIRED_COLUMNS_V2) if c not in header]
     if missing:
-        more = (f" (format {FORMAT} allows a file without the amplitude or the depth columns)"
+        more = (f" (format {FORMAT_V2} allows a file without the amplitude or the depth columns)"
                 if version == FORMAT_V1 and any(c not in REQUIRED_COLUMNS_V2 for c in missing) else "")
         raise SweepFileError(path, header_line, None, "missing required column(s): " + ", ".join(missing) + more)
+    for j, name in enumerate(header):
+        if name in V3_COLUMNS and version != FORMAT:
+            raise SweepFileError(path, header_line, _column(lines[i], j),
+                                 f"column {name} needs format {FORMAT} (a {version} reader would ignore it): write "
+                                 f'"# format: {FORMAT}" on the first line')
+    axis_column = SWEEP_AXES[metadata["sweep"]].column
+    if axis_column not in header:
+        raise SweepFileError(path, header_line, None, f"missing required column {axis_column}: the file's sweep is "
+                                                      f"{metadata['sweep']}")
     if not any(c in header for c in OBSERVABLE_COLUMNS):
         raise SweepFileError(path, header_line, None, "no measured quantity: the file needs at least one of the columns "
                                                       + ", ".join(OBSERVABLE_COLUMNS))
@@ -443,11 +467,14 @@ class SweepWriter:
 
 
 def needed_format(metadata: Mapping[str, str], columns: Iterable[str]) -> str:
-    """The oldest format that holds a file: version 1 unless it lacks a version-1 column or names
-    version-2 metadata (a version-1 reader must refuse such a file, not misread it)."""
+    """The oldest format that holds a file: version 3 for a temperature sweep or column, else version 1
+    unless it lacks a version-1 column or names version-2 metadata (an older reader must refuse such
+    a file, not misread it)."""
     columns = list(columns)
-    if any(c not in columns for c in REQUIRED_COLUMNS) or any(k in metadata for k in V2_METADATA):
+    if metadata.get("sweep") in V3_SWEEPS or any(c in columns for c in V3_COLUMNS):
         return FORMAT
+    if any(c not in columns for c in REQUIRED_COLUMNS) or any(k in metadata for k in V2_METADATA):
+        return FORMAT_V2
     return FORMAT_V1
 
 
@@ -481,14 +508,25 @@ SIMULATION_TAIL_COLUMNS = (
 )
 
 
+def operating_point_columns(result, index=()) -> dict[str, np.ndarray]:
+    """The operating point's columns of a :class:`tofjax.Result` (``result``'s fields at ``index``: a
+    multi-frequency run's first frequency), in the file's order: distance, integration time,
+    illuminance, and the temperature for a temperature sweep (version 3; other files leave it to the
+    configured ``pixel.temperature_c``, so that they stay readable by older readers)."""
+    cols = {name: np.asarray(getattr(result, name))[index]
+            for name in ("distance_m", "integration_time_s", "illuminance_lx")}
+    if result.sweep_variable in V3_SWEEPS:
+        cols["temperature_c"] = np.asarray(result.temperature_c)[index]
+    return cols
+
+
 def columns_from_result(result) -> dict[str, np.ndarray]:
     """The sweep-file columns of a :class:`tofjax.Result` (required columns first; an analytic
     result adds ``analytic_caveats``, the bits of :data:`tofjax.schema.CAVEATS`)."""
     n = result.noise
     frames = np.full(np.shape(result.distance_m), result.n_frames, dtype=float)
     cols = {
-        "distance_m": result.distance_m, "integration_time_s": result.integration_time_s,
-        "illuminance_lx": result.illuminance_lx, "n_frames": frames, "depth_mean_m": result.depth_mean_m,
+        **operating_point_columns(result), "n_frames": frames, "depth_mean_m": result.depth_mean_m,
         "depth_std_m": result.depth_std_m, "amplitude_mean_lsb": result.amplitude_mean_lsb,
         "amplitude_std_lsb": result.amplitude_std_lsb, "valid_fraction": result.valid_fraction,
         "depth_unwrapped_mean_m": result.depth_unwrapped_mean_m, "snr_db": result.snr_db,
