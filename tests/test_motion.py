@@ -73,6 +73,35 @@ def test_an_axially_moving_wall_is_each_phase_image_at_its_own_distance():
     assert 1e-4 < abs(bias) < v * 11e-3  # a bias, less than the 33 mm the wall travels in the frame
 
 
+def test_a_turning_wall_is_each_phase_image_at_its_own_tilt():
+    """A wall at 1.3 m turning at w = 20 rad/s about the vertical axis through a pivot 0.5 m behind it,
+    one instant per phase image: phase image j is the wall tilted by -w t_j crossing the axis at
+    1.8 - 0.5 / cos(w t_j) m (the plane through the turned point with the turned normal, written out
+    here with ``tilted_plane``), tap charges to 1e-12. The reading's gradient in w is a central
+    difference's. A sphere turning about its own centre is the static sphere (a pivot taken as the
+    origin would move it)."""
+    config = tj.Config().replace("pixel.noise", False).replace("adc.enabled", False)
+    camera = tj.Camera(small(config.params), ONE_RAY)
+    d0, behind, w = 1.3, 0.5, 20.0
+
+    def turning(rate):
+        return scenes.moving(scenes.wall(d0), angular_velocity_rad_per_s=jax.numpy.stack([0.0 * rate, rate, 0.0 * rate]),
+                             pivot_m=[0.0, 0.0, d0 + behind], substeps=1)
+
+    r = tj.predict(camera, turning(w)).result
+    for j, t in enumerate(np.asarray(instants_s(4, 2e-3, 1e-3, 1))[:, 0]):
+        tilt = w * t
+        static = tj.predict(camera, scenes.tilted_plane(d0 + behind - behind / np.cos(tilt), -np.rad2deg(tilt))).result
+        np.testing.assert_allclose(r.tap_a_e[..., j], static.tap_a_e[..., j], rtol=1e-12)
+        np.testing.assert_allclose(r.tap_b_e[..., j], static.tap_b_e[..., j], rtol=1e-12)
+    reading = lambda rate: tj.predict(camera, turning(rate)).radial_m[CENTRE]  # noqa: E731
+    eps = 1e-3
+    np.testing.assert_allclose(jax.grad(reading)(w), (reading(w + eps) - reading(w - eps)) / (2 * eps), rtol=1e-5)
+    ball = scenes.SceneGeometry(scenes.sphere(1.2).primitives[:1])
+    spun = scenes.moving(ball, angular_velocity_rad_per_s=[30.0, 50.0, 10.0], pivot_m=ball.primitives[0].centre)
+    np.testing.assert_allclose(tj.predict(camera, spun).radial_m, tj.predict(camera, ball).radial_m, rtol=1e-12)
+
+
 def test_a_depth_map_with_a_velocity_moves_as_the_scene_it_maps():
     """A Z-depth map of the wall at 1.3 m growing at 3 m/s is the receding wall, to rounding; a velocity
     of 0 is the static map's returns."""
@@ -125,6 +154,14 @@ def test_what_cannot_move_is_refused_in_one_line():
         scenes.moving(wall, [0.0, 0.0, 1.0], substeps=0)
     with pytest.raises(ValueError, match=r"velocity_m_per_s has shape \(2,\)"):
         scenes.moving(wall, [0.0, 1.0])
+    with pytest.raises(ValueError, match=r"angular_velocity_rad_per_s has shape \(2,\): allowed three numbers"):
+        scenes.moving(wall, angular_velocity_rad_per_s=[0.0, 1.0], pivot_m=[0.0, 0.0, 1.0])
+    with pytest.raises(ValueError, match="pivot_m is required with angular_velocity_rad_per_s"):
+        scenes.moving(wall, angular_velocity_rad_per_s=[0.0, 1.0, 0.0])
+    with pytest.raises(ValueError, match=r"the scene cannot turn: primitives\[0\]: Plane is bounded by an "
+                                         r"axis-aligned box \(hi finite\)"):
+        scenes.moving(scenes.step_edge(1.0, 1.6), angular_velocity_rad_per_s=[0.0, 1.0, 0.0], pivot_m=[0.0, 0.0, 1.0])
+    assert scenes.moving(wall, angular_velocity_rad_per_s=[0.0, 0.0, 0.0], pivot_m=[0.0, 0.0, 1.0]).still
     moving = camera.returns(scenes.moving(wall, [0.0, 0.0, 1.0], substeps=1))
     with pytest.raises(ValueError, match="save_returns: these returns belong to phase images of a moving scene"):
         tj.frameio.save_returns("unused.npz", moving)

@@ -11,8 +11,8 @@ tagged with its phase image (:attr:`tofjax.Returns.phase_image`); the mixer sort
 phase image only. The truth (``radial_m``) and the background light are the scene's at the frame's
 centre time, (N t + (N - 1) t_ro) / 2, where the scene stands as given.
 
-What moves: a :class:`MovingScene` (:func:`moving`: a scene's primitives and patches translated
-rigidly at a constant velocity), or a user's renderer's returns, one :class:`tofjax.Returns` per
+What moves: a :class:`MovingScene` (:func:`moving`: a scene's primitives and patches in rigid
+motion, a constant velocity and a constant angular velocity about a pivot), or a user's renderer's returns, one :class:`tofjax.Returns` per
 phase image (:func:`per_phase_returns`). A scene that does not move is the static scene, to the bit.
 """
 
@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import equinox as eqx
 import jax
+import jax.scipy.linalg
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
@@ -35,20 +36,35 @@ MAX_SUBSTEPS = 64
 class MovingScene(eqx.Module):
     """A scene in rigid motion (:func:`moving`): ``geometry`` where it stands at the frame's centre
     time, moving at ``velocity_m_per_s`` (camera coordinates: x right, y up, z along the optical
-    axis), exposed at ``substeps`` instants per phase image (static)."""
+    axis) and turning at ``angular_velocity_rad_per_s`` (a rotation vector: its direction the axis by
+    the right-hand rule, its length the rate; ``None``: not turning) about ``pivot_m`` (where that
+    point stands at the centre time), exposed at ``substeps`` instants per phase image (static)."""
 
     geometry: SceneGeometry
     velocity_m_per_s: Float[Array, "3"]
     substeps: int = eqx.field(static=True, default=4)
+    angular_velocity_rad_per_s: Float[Array, "3"] | None = None
+    pivot_m: Float[Array, "3"] | None = None
 
     def __check_init__(self):
         if not isinstance(self.geometry, SceneGeometry):
             raise TypeError(f"tofjax.scenes.moving: scene must be a tofjax.scenes.SceneGeometry, got "
                             f"{type(self.geometry).__name__}")
-        if jnp.shape(self.velocity_m_per_s) != (3,):
-            raise ValueError(f"tofjax.scenes.moving: velocity_m_per_s has shape {jnp.shape(self.velocity_m_per_s)}: "
-                             "allowed three numbers (vx, vy, vz) in m/s")
+        for name, unit in (("velocity_m_per_s", "(vx, vy, vz) in m/s"),
+                           ("angular_velocity_rad_per_s", "(wx, wy, wz) in rad/s"), ("pivot_m", "(x, y, z) in m")):
+            value = getattr(self, name)
+            if value is not None and jnp.shape(value) != (3,):
+                raise ValueError(f"tofjax.scenes.moving: {name} has shape {jnp.shape(value)}: allowed three numbers "
+                                 f"{unit}")
+        if (self.angular_velocity_rad_per_s is None) != (self.pivot_m is None):
+            raise ValueError("tofjax.scenes.moving: pivot_m is required with angular_velocity_rad_per_s (and only "
+                             "with it): the point, m in camera coordinates, the scene turns about")
         self.check_substeps(self.substeps, "tofjax.scenes.moving")
+        if self.turning:
+            problem = self.geometry.rotation_problem()
+            if problem:
+                raise ValueError(f"tofjax.scenes.moving: angular_velocity_rad_per_s: the scene cannot turn: {problem} "
+                                 "(turn unbounded planes, spheres and patches; render anything else per phase image)")
 
     @staticmethod
     def check_substeps(substeps, what: str) -> None:
@@ -58,9 +74,27 @@ class MovingScene(eqx.Module):
                              f"{MAX_SUBSTEPS} (instants per phase image)")
 
     @property
+    def turning(self) -> bool:
+        """Whether the scene has an angular velocity that is not concretely zero."""
+        return self.angular_velocity_rad_per_s is not None and not _still(self.angular_velocity_rad_per_s)
+
+    @property
     def still(self) -> bool:
-        """Whether the velocity is concretely zero (then the frame is the static scene's)."""
-        return _still(self.velocity_m_per_s)
+        """Whether the velocity is concretely zero and the scene does not turn (then the frame is the
+        static scene's)."""
+        return _still(self.velocity_m_per_s) and not self.turning
+
+    def at(self, t_s) -> SceneGeometry:
+        """The scene at ``t_s`` from the frame's centre time: translated by v t, and turned by the
+        rotation exp([w t]x) about the pivot, which itself moves with v (Rodrigues' rotation as a
+        matrix exponential, exact and differentiable at w = 0)."""
+        offset = t_s * self.velocity_m_per_s
+        if not self.turning:
+            return self.geometry.translated(offset)
+        wx, wy, wz = self.angular_velocity_rad_per_s * t_s
+        zero = jnp.zeros_like(wx)
+        skew = jnp.stack([jnp.stack([zero, -wz, wy]), jnp.stack([wz, zero, -wx]), jnp.stack([-wy, wx, zero])])
+        return self.geometry.turned(jax.scipy.linalg.expm(skew), self.pivot_m, offset)
 
 
 def _still(velocity) -> bool:
@@ -70,13 +104,24 @@ def _still(velocity) -> bool:
     return not _is_tracer(velocity) and not np.any(np.asarray(velocity))
 
 
-def moving(scene: SceneGeometry, velocity_m_per_s, *, substeps: int = 4) -> MovingScene:
-    """``scene`` moving rigidly at ``velocity_m_per_s`` (m/s, camera coordinates: x right, y up, z
-    away from the camera) during the frame, standing as given at the frame's centre time, its
-    exposure integrated over ``substeps`` instants per phase image (module docstring)."""
+def moving(scene: SceneGeometry, velocity_m_per_s=(0.0, 0.0, 0.0), *, angular_velocity_rad_per_s=None,
+           pivot_m=None, substeps: int = 4) -> MovingScene:
+    """``scene`` in rigid motion during the frame, standing as given at the frame's centre time, its
+    exposure integrated over ``substeps`` instants per phase image (module docstring).
+
+    - ``velocity_m_per_s``: (vx, vy, vz), m/s, camera coordinates (x right, y up, z away from the camera).
+    - ``angular_velocity_rad_per_s``: (wx, wy, wz), rad/s, a rotation vector (axis by the right-hand
+      rule, length the rate) about ``pivot_m`` (m, camera coordinates; required with it). Planes
+      without bounds, spheres and patches turn; a bounded plane or a box (axis-aligned) is refused.
+    """
     v = jnp.asarray(checked_range(velocity_m_per_s, "tofjax.scenes.moving: velocity_m_per_s", -1e4, 1e4,
                                   unit="m/s"), dtype=float)
-    return MovingScene(scene, v, substeps)
+    w = None if angular_velocity_rad_per_s is None else jnp.asarray(checked_range(
+        angular_velocity_rad_per_s, "tofjax.scenes.moving: angular_velocity_rad_per_s", -1e4, 1e4, unit="rad/s"),
+        dtype=float)
+    pivot = None if pivot_m is None else jnp.asarray(checked_range(pivot_m, "tofjax.scenes.moving: pivot_m",
+                                                                   unit="m"), dtype=float)
+    return MovingScene(scene, v, substeps, w, pivot)
 
 
 def instants_s(n_phases: int, phase_image_time_s, readout_time_s, substeps: int) -> Float[Array, "phases substeps"]:
@@ -112,8 +157,7 @@ def moving_returns(camera, scene: MovingScene, **kwargs) -> Returns:
     static = camera.returns(scene.geometry, **kwargs)
     if scene.still:
         return static
-    return _over_instants(camera, scene.substeps, static,
-                          lambda t: camera.returns(scene.geometry.translated(t * scene.velocity_m_per_s), **kwargs))
+    return _over_instants(camera, scene.substeps, static, lambda t: camera.returns(scene.at(t), **kwargs))
 
 
 def _over_instants(camera, substeps: int, static: Returns, returns_at) -> Returns:

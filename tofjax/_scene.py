@@ -30,7 +30,7 @@ from jaxtyping import Array, Bool, Float
 
 from ._optics import lens
 from ._params import Optics
-from ._schema import checked_range
+from ._schema import _is_tracer, checked_range
 
 _INF = jnp.inf
 #: The scene parameters' ranges: distances (m) and Lambertian reflectivities.
@@ -209,8 +209,6 @@ def _facing(normal, d):
 
 
 def _concrete(x) -> np.ndarray | None:
-    from ._schema import _is_tracer
-
     return None if _is_tracer(x) else np.asarray(x, dtype=float)
 
 
@@ -244,6 +242,11 @@ class AbstractPrimitive(eqx.Module):
 
     #: The fields that are positions (m), which a translation moves (:meth:`translated`).
     positions: ClassVar[tuple[str, ...]] = ()
+    #: The positions that bound the surface to an axis-aligned box (per axis; inf = unbounded): a
+    #: translation moves them, a rotation cannot turn them (:meth:`rotation_problem`).
+    bounds: ClassVar[tuple[str, ...]] = ()
+    #: The fields that are directions (normals), which a rotation turns and a translation leaves.
+    directions: ClassVar[tuple[str, ...]] = ()
 
     @abc.abstractmethod
     def intersect(self, d: Float[Array, "*r 3"]) -> Hit:
@@ -258,6 +261,34 @@ class AbstractPrimitive(eqx.Module):
         return eqx.tree_at(lambda p: tuple(getattr(p, f) for f in self.positions), self,
                            tuple(getattr(self, f) + offset_m for f in self.positions))
 
+    def rotation_problem(self) -> str | None:
+        """Why this surface cannot turn rigidly (``None``: it can): it names no positions, or its
+        concrete :attr:`bounds` are finite (an axis-aligned box cannot turn and stay one)."""
+        name = type(self).__name__
+        if not self.positions:
+            return f"{name} names no positions (AbstractPrimitive.positions)"
+        finite = [f for f in self.bounds if not _is_tracer(getattr(self, f)) and np.any(np.isfinite(getattr(self, f)))]
+        if finite:
+            return (f"{name} is bounded by an axis-aligned box ({', '.join(finite)} finite), which cannot turn and "
+                    "stay axis-aligned")
+        return None
+
+    def turned(self, rotation: Float[Array, "3 3"], pivot_m: Float[Array, "3"], offset_m: Float[Array, "3"]):
+        """This surface turned by ``rotation`` about ``pivot_m``, then moved by ``offset_m``: positions
+        p -> pivot + R (p - pivot) + offset, directions n -> R n, :attr:`bounds` (unbounded, as
+        :meth:`rotation_problem` requires) moved only."""
+        fields = (*self.positions, *self.directions)
+
+        def new(f):
+            x = getattr(self, f)
+            if f in self.directions:
+                return rotation @ x
+            if f in self.bounds:
+                return x + offset_m
+            return pivot_m + rotation @ (x - pivot_m) + offset_m
+
+        return eqx.tree_at(lambda p: tuple(getattr(p, f) for f in fields), self, tuple(new(f) for f in fields))
+
 
 class Plane(AbstractPrimitive):
     """The plane through ``point`` with ``normal``, clipped to the box ``[lo, hi]`` (per axis; inf =
@@ -269,6 +300,8 @@ class Plane(AbstractPrimitive):
     lo: Float[Array, "3"] = eqx.field(converter=_f64, default=(-_INF, -_INF, -_INF))
     hi: Float[Array, "3"] = eqx.field(converter=_f64, default=(_INF, _INF, _INF))
     positions: ClassVar[tuple[str, ...]] = ("point", "lo", "hi")
+    bounds: ClassVar[tuple[str, ...]] = ("lo", "hi")
+    directions: ClassVar[tuple[str, ...]] = ("normal",)
 
     def __check_init__(self):
         checked_range(self.point, "tofjax.scenes.Plane: point", unit="m")
@@ -321,6 +354,7 @@ class Box(AbstractPrimitive):
     hi: Float[Array, "3"] = eqx.field(converter=_f64)
     reflectivity: Float[Array, ""] = eqx.field(converter=_f64)
     positions: ClassVar[tuple[str, ...]] = ("lo", "hi")
+    bounds: ClassVar[tuple[str, ...]] = ("lo", "hi")
 
     def __check_init__(self):
         _ordered(self.lo, self.hi, "tofjax.scenes.Box")
@@ -381,6 +415,25 @@ class SceneGeometry(eqx.Module):
         patches = None if self.patches is None else eqx.tree_at(lambda p: p.centre, self.patches,
                                                                   self.patches.centre + offset_m)
         return SceneGeometry(tuple(p.translated(offset_m) for p in self.primitives), patches, self.name)
+
+    def rotation_problem(self) -> str | None:
+        """Why the scene cannot turn rigidly (its first primitive that cannot), or ``None``."""
+        for i, p in enumerate(self.primitives):
+            problem = p.rotation_problem()
+            if problem:
+                return f"primitives[{i}]: {problem}"
+        return None
+
+    def turned(self, rotation: Float[Array, "3 3"], pivot_m: Float[Array, "3"],
+               offset_m: Float[Array, "3"]) -> SceneGeometry:
+        """The scene turned rigidly by ``rotation`` about ``pivot_m``, then moved by ``offset_m`` (its
+        primitives, :meth:`AbstractPrimitive.turned`, and its patches' centres and normals)."""
+        patches = self.patches
+        if patches is not None:
+            patches = eqx.tree_at(lambda p: (p.centre, p.normal), patches,
+                                  (pivot_m + (patches.centre - pivot_m) @ rotation.T + offset_m,
+                                   patches.normal @ rotation.T))
+        return SceneGeometry(tuple(p.turned(rotation, pivot_m, offset_m) for p in self.primitives), patches, self.name)
 
     def cast(self, d: Float[Array, "*r 3"]) -> Hit:
         """The nearest hit of every ray ``d`` (unit directions from the lens centre); of equally near
