@@ -25,7 +25,7 @@ from ._compare import FileComparison, compare_measurements, write_comparison
 from ._data import OBSERVABLES, SweepRows, load_rows, read_measurement
 from ._least_squares import ConvergenceError, LeastSquaresResult, fit_least_squares
 from ._parameters import CalibrationInputError, make_parameters
-from ._problem import Problem, batched_curves, build_problem, hard_observables
+from ._problem import VALID_MARGIN, Problem, batched_curves, build_problem, hard_observables
 
 if TYPE_CHECKING:  # emcee (and scipy through it) are imported only when a posterior is sampled
     from ._posterior import PosteriorResult
@@ -43,9 +43,15 @@ class Calibration:
     problem: Problem
     least_squares: LeastSquaresResult
     posterior: PosteriorResult | None
-    #: Rows the fitted model could not measure (saturated or no value), left out and refitted:
-    #: ``{"file", "line", "reason"}``.
+    #: With ``leave_out_invalid``: rows the fitted model could not measure (saturated or no value),
+    #: left out and refitted: ``{"file", "line", "reason"}``.
     excluded_at_solution: list[dict] = dataclasses.field(default_factory=list)
+    #: Rows the fitted model cannot measure although the camera did (the validity constraint could
+    #: not hold them), kept in the fit: ``{"file", "line", "reason"}``; empty when it explains every row.
+    unexplained: list[dict] = dataclasses.field(default_factory=list)
+    #: Rows the validity constraint holds at the edge of a limit (headroom below twice the margin):
+    #: ``{"file", "line", "headroom"}``; the data there ask for the dynamic range the model has.
+    at_limit: list[dict] = dataclasses.field(default_factory=list)
     #: The command line that produced it (set by the CLI).
     command: str = ""
 
@@ -84,7 +90,8 @@ class Calibration:
                        "excluded_rows": r.excluded,
                        "left_out": {str(int(r.lines[i])) if r.lines is not None else str(i): why
                                     for i, why in sorted(r.reasons.items())}} for r in self.rows],
-            "excluded_at_solution": self.excluded_at_solution,
+            "excluded_at_solution": self.excluded_at_solution, "unexplained": self.unexplained,
+            "at_limit": self.at_limit,
             "true_values": true_values(self),
             "least_squares": self.least_squares.as_dict(),
             "posterior": self.posterior.as_dict() if self.posterior is not None else None,
@@ -126,7 +133,7 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
               relative_error: float | None = None, min_snr: float = 5.0, smooth: tj.Smooth | None = None,
               mcmc: bool = False, walkers: int = 32, steps: int = 2000, seed: int = 0, backend=None,
               resume: bool = False, progress: bool = False, max_steps: int = 1000,
-              initial: dict[str, float] | None = None) -> Calibration:
+              initial: dict[str, float] | None = None, leave_out_invalid: bool = False) -> Calibration:
     """Calibrate the parameters ``fit`` (dotted names) against sweep files.
 
     **Arguments:**
@@ -142,11 +149,18 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
     - ``max_steps``: least-squares step limit; ``initial``: ``{name: value}`` starting values
       (default: the configuration's).
 
-    **Validity at the solution:** the fit runs on the smooth relaxation, which has values where the
-    hard model has none. After the least squares the hard model is evaluated at the estimate on every
-    row used; rows it saturates (pixel or ADC) or cannot measure are left out, named in
-    ``Calibration.excluded_at_solution`` (file, line, reason), and the fit is repeated from the
-    estimate, up to :data:`MAX_REFITS` times. If no row is left, :class:`CalibrationInputError` names them.
+    **Every measured point constrains the fit:** a camera that delivered a row was neither saturated
+    nor at an ADC rail there, so by default the fit holds every row it uses where the hard model
+    measures it (the validity penalty, :mod:`fitting._problem`): the solution keeps each row's
+    headroom (:attr:`tofjax.Result.headroom`) above :data:`~fitting._problem.VALID_MARGIN`. Rows it
+    holds at that edge are listed in ``Calibration.at_limit`` (the data ask for the dynamic range the
+    model has: free the full well, the saturation voltage or the ADC's range with ``fit`` where the
+    data sheet leaves them open); rows the hard model still cannot measure at the solution stay in
+    the fit and are named in ``Calibration.unexplained``. ``leave_out_invalid=True`` is the older,
+    explicit alternative: no penalty; rows the fitted hard model saturates (pixel or ADC) or cannot
+    measure are left out, named in ``Calibration.excluded_at_solution`` (file, line, reason), and the
+    fit is repeated from the estimate, up to :data:`MAX_REFITS` times (if no row is left,
+    :class:`CalibrationInputError` names them).
 
     An unconverged least squares still returns (``least_squares.converged`` is ``False``; no
     posterior is sampled), so its diagnostics can be written; the CLI then exits with status 1.
@@ -154,9 +168,18 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
     config = config if config is not None else tj.Config()
     rows, parameters = check_inputs(paths, config, fit=fit, bounds=bounds, priors=priors,
                                     relative_error=relative_error, min_snr=min_snr, initial=initial)
-    problem = build_problem(parameters, rows, smooth, relative_error)
+    problem = build_problem(parameters, rows, smooth, relative_error, validity=not leave_out_invalid)
     ls = fit_least_squares(problem, rows, max_steps=max_steps, throw=False)
     excluded: list[dict] = []
+    if not leave_out_invalid:
+        bad = invalid_at(problem, ls.estimate, rows)
+        unexplained = [{"file": rows[i].path, "line": _line(rows[i], k),
+                        "reason": f"{reason}, where the camera measured it"} for i, k, reason in bad]
+        cal = Calibration(config, rows, problem, ls, None, [], unexplained, at_limit(problem, ls.estimate, rows))
+        if mcmc and ls.converged:
+            cal = cal.with_posterior(walkers=walkers, steps=steps, seed=seed, backend=backend, resume=resume,
+                                     progress=progress)
+        return cal
     for _ in range(MAX_REFITS):
         bad = invalid_at(problem, ls.estimate, rows)
         if not bad:
@@ -167,13 +190,13 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
                 r.data[name][1][k] = False
             r.reasons[k] = reason
             r.excluded["at_solution"] = r.excluded.get("at_solution", 0) + 1
-            excluded.append({"file": r.path, "line": int(r.lines[k]) if r.lines is not None else k + 1, "reason": reason})
+            excluded.append({"file": r.path, "line": _line(r, k), "reason": reason})
         if sum(len(r.used(n)) for r in rows for n in OBSERVABLES) < len(parameters):
             raise CalibrationInputError("the fitted model cannot measure the rows the fit needs: "
                                         + "; ".join(f"{Path(e['file']).name}:{e['line']}: {e['reason']}" for e in excluded))
         parameters = tuple(dataclasses.replace(p, initial=_inside(p, float(v)))
                            for p, v in zip(parameters, ls.estimate, strict=True))
-        problem = build_problem(parameters, rows, smooth, relative_error)
+        problem = build_problem(parameters, rows, smooth, relative_error, validity=False)
         ls = fit_least_squares(problem, rows, max_steps=max_steps, throw=False)
     cal = Calibration(config, rows, problem, ls, None, excluded)
     if mcmc and ls.converged:
@@ -197,25 +220,53 @@ def _inside(p, value: float) -> float:
     return value
 
 
+def _line(r: SweepRows, k: int) -> int:
+    """The file line of row ``k`` of ``r``."""
+    return int(r.lines[k]) if r.lines is not None else k + 1
+
+
+def _used(r: SweepRows) -> np.ndarray:
+    """Which of ``r``'s rows enter the fit (any observable)."""
+    used = np.zeros(r.n_rows, bool)
+    for name in OBSERVABLES:
+        used |= r.data[name][1]
+    return used
+
+
+def _hard_at(problem: Problem, theta, rows: list[SweepRows]):
+    """Per file used by the fit: (file index, its rows' slice of the group, the hard model's
+    observables of its group at ``theta``)."""
+    for group in problem.groups:
+        obs = hard_observables(problem.with_values(group.params, jnp.asarray(theta)), group.model_sweep(dense=False),
+                               group.frequencies_hz, group.fusion)  # host arrays
+        for i, bounds in zip(group.files, group.bounds, strict=True):
+            yield i, slice(*bounds), obs
+
+
+def at_limit(problem: Problem, theta, rows: list[SweepRows]) -> list[dict]:
+    """Rows used by the fit that the hard model at ``theta`` measures with a headroom below twice the
+    validity margin (:data:`~fitting._problem.VALID_MARGIN`): where the constraint holds the solution."""
+    out = []
+    for i, rows_of, obs in _hard_at(problem, theta, rows):
+        headroom = np.asarray(obs.headroom)[rows_of]
+        for k in np.flatnonzero(_used(rows[i]) & (headroom > 0.0) & (headroom < 2 * VALID_MARGIN)):
+            out.append({"file": rows[i].path, "line": _line(rows[i], k), "headroom": float(headroom[k])})
+    return out
+
+
 def invalid_at(problem: Problem, theta, rows: list[SweepRows]) -> list[tuple[int, int, str]]:
     """Rows used by the fit that the hard model at ``theta`` cannot measure: (file index, row,
     reason)."""
     out = []
-    for group in problem.groups:
-        obs = hard_observables(problem.with_values(group.params, jnp.asarray(theta)), group.model_sweep(dense=False),
-                               group.frequencies_hz, group.fusion)  # host arrays
-        for i, (lo, hi) in zip(group.files, group.bounds, strict=True):
-            r = rows[i]
-            used = np.zeros(r.n_rows, bool)
-            for name in OBSERVABLES:
-                used |= r.data[name][1]
-            pixel, adc = np.asarray(obs.pixel_saturated_fraction)[lo:hi], np.asarray(obs.adc_saturated_fraction)[lo:hi]
-            finite = np.isfinite(np.asarray(obs.depth_std_m)[lo:hi]) & np.isfinite(np.asarray(obs.amplitude_mean_lsb)[lo:hi])
-            for k in np.flatnonzero(used & ((pixel > 0) | (adc > 0) | ~finite)):
-                reason = ("the fitted model saturates the pixel here" if pixel[k] > 0 else
-                          "the fitted model saturates the ADC here" if adc[k] > 0 else
-                          "the fitted model has no value here")
-                out.append((i, int(k), reason))
+    for i, rows_of, obs in _hard_at(problem, theta, rows):
+        pixel, adc, depth_std, amplitude = (np.asarray(x)[rows_of] for x in (
+            obs.pixel_saturated_fraction, obs.adc_saturated_fraction, obs.depth_std_m, obs.amplitude_mean_lsb))
+        finite = np.isfinite(depth_std) & np.isfinite(amplitude)
+        for k in np.flatnonzero(_used(rows[i]) & ((pixel > 0) | (adc > 0) | ~finite)):
+            reason = ("the fitted model saturates the pixel here" if pixel[k] > 0 else
+                      "the fitted model saturates the ADC here" if adc[k] > 0 else
+                      "the fitted model has no value here")
+            out.append((i, int(k), reason))
     return out
 
 
@@ -409,9 +460,23 @@ def _report(cal: Calibration, figures: list[Path], comparisons=()) -> Summary:
                     f"{used}; left out: {r.excluded['saturated']} with saturated frames, {r.excluded['low_snr']} "
                     f"below the SNR limit, {r.excluded.get('at_solution', 0)} the fitted model cannot measure")
         for k, why in sorted(r.reasons.items()):
-            line = int(r.lines[k]) if r.lines is not None else k + 1
-            data.append(f"{Path(r.path).name} line {line}: {why}")
+            data.append(f"{Path(r.path).name} line {_line(r, k)}: {why}")
     report.sections.append(Section("Data", [data]))
+    if cal.problem.validity:  # every measured row constrains the fit (calibrate's docstring)
+        limits = ["Every row the fit uses is held where the model measures it (a camera that delivered a row was "
+                  "not saturated there): its headroom to the nearest limit (the full well, or SBI's, or an ADC "
+                  f"rail) stays above {VALID_MARGIN:g} of that limit's range."]
+        limits += [f"{Path(e['file']).name} line {e['line']}: {e['reason']}: the model cannot explain it (kept in the "
+                   "fit)" for e in cal.unexplained]
+        limits += [f"{Path(e['file']).name} line {e['line']}: held at the edge (headroom {e['headroom']:.2g})"
+                   for e in cal.at_limit]
+        if cal.at_limit:
+            limits.append("The data ask for the dynamic range the model has at these rows: if the data sheet leaves "
+                          "the full well, the saturation voltage or the ADC's range open, fit them too (--fit "
+                          "pixel.full_well_e, ...); the estimates' sigmas there hold the edge, not only the data.")
+        elif not cal.unexplained:
+            limits.append("No row is at its edge: the constraint does not act at the solution.")
+        report.sections.append(Section("Validity of the measured rows", [limits]))
     fit = [f"{'converged' if ls.converged else 'NOT CONVERGED (the estimate below is the last iterate)'} after "
            f"{ls.steps} steps; chi^2 = {ls.chi2:.2f} for {ls.dof} degrees of freedom (chi^2/dof = "
            f"{ls.chi2_per_dof:.3f}); condition number {ls.condition_number:.3g}",

@@ -305,7 +305,7 @@ def _residual_function(problem: Problem, max_steps: int):
             tick(max_steps)
         return cache[key]
 
-    n = sum(int(np.size(m)) for g in problem.groups for m in g.masks)
+    n = problem.n_slots
     shapes = (jax.ShapeDtypeStruct((n,), jnp.float64), jax.ShapeDtypeStruct((n, problem.n_params), jnp.float64))
 
     @jax.custom_jvp

@@ -4,6 +4,14 @@ The model side is :func:`tofjax.predict` (analytic path) in the smooth mode, so 
 differentiable everywhere, including near saturation. Residual = (model - data) / sigma, for the
 amplitude (LSB) and the depth standard deviation (m) of every row that enters the fit.
 
+A camera that delivered a row was neither saturated nor at an ADC rail there: with
+:attr:`Problem.validity` (the default) every row that enters the fit also has a one-sided residual
+(:data:`VALID_MARGIN` - h) / :data:`VALID_SCALE` where its headroom h (:attr:`tofjax.Result.headroom`,
+the nearest hard limit's distance as a fraction of its range, from the chain's own limit and readout
+stages) falls below the margin, 0 elsewhere: a penalty that holds the solution where the hard
+model measures every row, and that is 0 (with a 0 Jacobian) wherever it holds, so it changes
+neither chi^2 nor the covariance of a fit that stays inside.
+
 Compiled once per structure. Files taken with the same camera (equal parameters; they differ only in
 their operating points, which are per-row inputs, and in their background lamp) form a group whose
 rows are concatenated into one sweep, so one :func:`tofjax.predict` evaluates the whole group. A file
@@ -38,6 +46,10 @@ from ._parameters import FreeParameter
 
 #: Points of the dense model curve per file (the figures).
 DENSE_POINTS = 160
+#: The headroom (a fraction of the nearest limit's range) the validity penalty holds every used row
+#: above, and the headroom shortfall that costs one standard deviation (module docstring).
+VALID_MARGIN = 1e-3
+VALID_SCALE = 1e-4
 
 
 def dense_sweep(s: tj.Sweep, n: int = DENSE_POINTS) -> dict[str, np.ndarray]:
@@ -64,6 +76,7 @@ class Observables(eqx.Module):
     pixel_saturated_fraction: Array
     adc_saturated_fraction: Array
     caveats: Array  # tofjax.schema.CAVEATS bits (of any frequency)
+    headroom: Array  # tofjax.Result.headroom (the smallest of any frequency)
 
 
 def observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str,
@@ -73,7 +86,8 @@ def observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float,
     if len(frequencies_hz) < 2:
         r = tj.predict(params, sweep, smooth=smooth)
         return Observables(r.amplitude_mean_lsb, r.amplitude_std_lsb, r.depth_mean_m, r.depth_std_m,
-                           r.valid_fraction, r.pixel_saturated_fraction, r.adc_saturated_fraction, r.caveats)
+                           r.valid_fraction, r.pixel_saturated_fraction, r.adc_saturated_fraction, r.caveats,
+                           r.headroom)
     m = tj.predict(tj.Camera(params, smooth=smooth, frequencies_hz=frequencies_hz, fusion=fusion), sweep)
     p = m.per_frequency
     caveats = p.caveats[0]
@@ -81,7 +95,7 @@ def observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float,
         caveats = caveats | p.caveats[k]
     return Observables(p.amplitude_mean_lsb[0], p.amplitude_std_lsb[0], m.depth_mean_m, m.depth_std_m,
                        m.valid_fraction, jnp.max(p.pixel_saturated_fraction, axis=0),
-                       jnp.max(p.adc_saturated_fraction, axis=0), caveats)
+                       jnp.max(p.adc_saturated_fraction, axis=0), caveats, jnp.min(p.headroom, axis=0))
 
 
 #: :func:`hard_observables` runs a multiple of this many operating points, so that the checks at the
@@ -228,6 +242,9 @@ class Problem(eqx.Module):
     relative_error: Float[Array, ""]
     groups: tuple[FileGroup, ...]
     smooth: tj.Smooth
+    #: Hold every used row where the hard model measures it (module docstring); ``False``: the data
+    #: residuals only (``calibrate(..., leave_out_invalid=True)``).
+    validity: bool = eqx.field(static=True, default=True)
 
     @property
     def n_params(self) -> int:
@@ -236,6 +253,13 @@ class Problem(eqx.Module):
     @property
     def n_files(self) -> int:
         return sum(len(g.files) for g in self.groups)
+
+    @property
+    def n_slots(self) -> int:
+        """The residual vector's length: a slot per row and observable, then (with :attr:`validity`)
+        a validity slot per row."""
+        data = sum(int(np.size(m)) for g in self.groups for m in g.masks)
+        return data + (sum(g.n_data for g in self.groups) if self.validity else 0)
 
     @property
     def n_residuals(self) -> int:
@@ -300,6 +324,18 @@ class Problem(eqx.Module):
         models = (r.amplitude_mean_lsb[: group.n_data], depth_std)
         return tuple((m, jnp.where(mask, s, 1.0)) for m, s, mask in zip(models, sigmas, group.masks, strict=True))
 
+    def _penalty(self, r: Observables, group: FileGroup) -> Array:
+        """The validity residuals of a group's data rows (module docstring): 0 for rows that do not
+        enter the fit and for rows with headroom above :data:`VALID_MARGIN`; none without
+        :attr:`validity`."""
+        if not self.validity:
+            return jnp.zeros((0,))
+        used = group.masks[0]
+        for mask in group.masks[1:]:
+            used = used | mask
+        short = VALID_MARGIN - r.headroom[: group.n_data]
+        return jnp.where(used & (short > 0.0), short / VALID_SCALE, 0.0)
+
     def _split(self, per_group):
         """Per-group row arrays -> per file (in the order given), per observable."""
         out: list = [None] * self.n_files
@@ -313,15 +349,17 @@ class Problem(eqx.Module):
         of the file (masked rows: uncertainty 1)."""
         return self._split([self._rows(self.predict_group(theta, g, dense=False), g) for g in self.groups])
 
-    def _residuals(self, per_group) -> Float[Array, " residuals"]:
+    def _residuals(self, per_group, penalties) -> Float[Array, " residuals"]:
+        """The data residuals of every group, then its validity residuals (:meth:`_penalty`)."""
         parts = []
         for group, per_obs in zip(self.groups, per_group, strict=True):
             for (m, s), v, mask in zip(per_obs, group.values, group.masks, strict=True):
                 parts.append(jnp.where(mask, (m - v) / s, 0.0))
-        return jnp.concatenate(parts)
+        return jnp.concatenate(parts + list(penalties))
 
     def residuals_theta(self, theta: Float[Array, " params"]) -> Float[Array, " residuals"]:
-        return self._residuals([self._rows(self.predict_group(theta, g, dense=False), g) for g in self.groups])
+        results = [(self.predict_group(theta, g, dense=False), g) for g in self.groups]
+        return self._residuals([self._rows(r, g) for r, g in results], [self._penalty(r, g) for r, g in results])
 
     def residuals(self, u: Float[Array, " params"]) -> Float[Array, " residuals"]:
         """Whitened residuals at unconstrained parameters ``u`` (0 for masked rows)."""
@@ -331,9 +369,10 @@ class Problem(eqx.Module):
         """Gaussian log-likelihood, with the normalisation of parameter-dependent uncertainties."""
         total = jnp.asarray(0.0)
         for group in self.groups:
-            per_obs = self._rows(self.predict_group(theta, group, dense=False), group)
-            for (m, s), v, mask in zip(per_obs, group.values, group.masks, strict=True):
+            r = self.predict_group(theta, group, dense=False)
+            for (m, s), v, mask in zip(self._rows(r, group), group.values, group.masks, strict=True):
                 total = total - jnp.sum(jnp.where(mask, 0.5 * ((m - v) / s) ** 2 + jnp.log(s), 0.0))
+            total = total - 0.5 * jnp.sum(self._penalty(r, group) ** 2)  # the validity constraint
         return total
 
     def log_prior(self, u: Float[Array, " params"]) -> Float[Array, ""]:
@@ -358,8 +397,9 @@ class Problem(eqx.Module):
 
 
 def build_problem(parameters: tuple[FreeParameter, ...], rows: list[SweepRows], smooth: tj.Smooth | None = None,
-                  relative_error: float | None = None) -> Problem:
-    """Assemble the problem from free parameters and prepared sweep files."""
+                  relative_error: float | None = None, validity: bool = True) -> Problem:
+    """Assemble the problem from free parameters and prepared sweep files (``validity``:
+    :attr:`Problem.validity`)."""
     def kind(p: FreeParameter) -> str:
         return "both" if p.lower is not None and p.upper is not None else ("lower" if p.lower is not None else "none")
 
@@ -375,7 +415,7 @@ def build_problem(parameters: tuple[FreeParameter, ...], rows: list[SweepRows], 
         prior_sigma=numbers(p.prior[1] if p.prior else 0.0 for p in parameters),
         relative_error=jnp.asarray(0.0 if relative_error is None else float(relative_error)),
         groups=_groups(rows, merge_lamps=not any(p.name in BAND_PARAMETERS for p in parameters)),
-        smooth=smooth if smooth is not None else tj.Smooth(),
+        smooth=smooth if smooth is not None else tj.Smooth(), validity=validity,
     )
 
 
@@ -399,13 +439,14 @@ def linearize(problem: Problem, u) -> Linearization:
     least-squares steps and for everything the fit reports at its solution."""
     def outputs(v):
         theta = problem.constrained(v)
-        per_group, curves = [], []
+        per_group, penalties, curves = [], [], []
         for group in problem.groups:
             r = problem.predict_group(theta, group)
             per_group.append(problem._rows(r, group))
+            penalties.append(problem._penalty(r, group))
             c = jnp.stack([r.amplitude_mean_lsb[group.n_data:], r.depth_std_m[group.n_data:]])
             curves.append(jnp.moveaxis(c.reshape(2, len(group.files), -1), 0, 1))
-        residuals = problem._residuals(per_group)
+        residuals = problem._residuals(per_group, penalties)
         return (residuals, tuple(curves)), (theta, residuals, problem._split(per_group), tuple(curves))
 
     (jac, curves_jac), (theta, residuals, evaluated, curves) = jax.jacfwd(outputs, has_aux=True)(u)

@@ -57,6 +57,10 @@ def register(subparsers) -> None:
     p.add_argument("--min-snr", type=positive_float, default=5.0,
                    help="leave out rows whose amplitude mean/std is below this (default 5)")
     p.add_argument("--max-steps", type=positive_int, default=1000, help="least-squares step limit (default 1000)")
+    p.add_argument("--leave-out-invalid", action="store_true",
+                   help="leave out the rows the fitted model saturates and refit, instead of holding every measured "
+                        "row where the model measures it (the default: a camera that delivered a row was not "
+                        "saturated there)")
     p.add_argument("--mcmc", action="store_true", help="sample the posterior with emcee after the least squares")
     p.add_argument("--walkers", type=positive_int, default=32, help="emcee walkers (default 32)")
     p.add_argument("--steps", type=positive_int, default=2000, help="emcee steps (default 2000)")
@@ -128,13 +132,20 @@ def run(args) -> int:
                                 upper_bound=True)), compiling(enabled=not args.quiet):
             cal = calibrate(args.sweeps, config, fit=names, bounds=dict(args.bounds), priors=dict(args.prior),
                             relative_error=args.relative_error, min_snr=args.min_snr, max_steps=args.max_steps,
-                            initial=dict(args.initial))
+                            initial=dict(args.initial), leave_out_invalid=args.leave_out_invalid)
     except ConvergenceError as err:  # name the option, not the API argument
         raise CommandError(str(err).replace("`max_steps`", f"--max-steps (now {args.max_steps})"), 1) from None
     cal.command = " ".join(["tofjax", *map(shlex.quote, sys.argv[1:])]) if sys.argv[1:2] == ["calibrate"] else ""
     ls = cal.least_squares
     for e in cal.excluded_at_solution:
         print(f"left out {e['file']}:{e['line']}: {e['reason']} (refitted without it)")
+    for e in cal.unexplained:
+        print(f"warning: {e['file']}:{e['line']}: {e['reason']}: the model cannot explain this row (kept in the fit)")
+    if cal.at_limit:
+        print(f"note: {len(cal.at_limit)} measured row(s) hold the fit at the edge of saturation or an ADC rail "
+              f"(first {cal.at_limit[0]['file']}:{cal.at_limit[0]['line']}): the data ask for more dynamic range than "
+              "the configuration has; free pixel.full_well_e (or pixel.v_saturated_v, adc.*) with --fit if your data "
+              "sheet leaves it open (report.md lists them)")
     if ls.converged:  # the estimates as soon as the fit ends (a posterior may take minutes more)
         print(f"least squares: converged in {ls.steps} steps, chi^2/dof = {ls.chi2_per_dof:.3f} ({ls.dof} dof)")
         _print_estimates(ls)

@@ -155,15 +155,16 @@ def test_datasheet_full_well_exposure_and_background_mixture():
 
 
 def test_calibration_leaves_out_what_the_fitted_model_cannot_measure(files, tmp_path, capsys):
-    """A depth-only file whose nearest row the camera saturates: the smooth fit would pass through
-    it; it is left out by name and refitted. The dark slope of these data is 0: flagged at its bound.
-    An unconverged fit still writes its diagnostics; --mcmc works with one parameter."""
+    """A depth-only file whose nearest row the camera saturates (made by the smooth model, which has
+    values there): with ``leave_out_invalid`` the row is left out by name and refitted. The dark
+    slope of these data is 0: flagged at its bound. An unconverged fit still writes its diagnostics;
+    --mcmc works with one parameter."""
     r = tj.predict(tj.Params(pixel=tj.Pixel(dark_slope_mean_v_per_s=0.0)),
                    tj.Sweep("distance", np.concatenate([[0.12], D])), smooth=tj.Smooth())
     path = _file(tmp_path / "smooth.csv", {**_operating(np.concatenate([[0.12], D])),
                                            "depth_std_m": np.asarray(r.depth_std_m)})
     cal = ft.calibrate([path], fit=["pixel.demodulation_contrast", "pixel.dark_slope_mean_v_per_s"],
-                       relative_error=0.02)
+                       relative_error=0.02, leave_out_invalid=True)
     assert [(e["line"], e["reason"]) for e in cal.excluded_at_solution] == [(8, "the fitted model saturates the pixel here")]
     assert cal.least_squares.estimate[0] == pytest.approx(0.42, rel=1e-3)
     (flag,) = cal.least_squares.bound_flags
@@ -178,12 +179,43 @@ def test_calibration_leaves_out_what_the_fitted_model_cannot_measure(files, tmp_
     assert "line 8: the fitted model saturates the pixel here" in report and "lower bound" in report
     out = tmp_path / "unconverged"
     assert main(["calibrate", str(path), "--fit", "pixel.demodulation_contrast", "--relative-error", "0.02",
-                 "--initial", "pixel.demodulation_contrast=0.9", "--max-steps", "1", "--out", str(out), "--quiet"]) == 1
+                 "--initial", "pixel.demodulation_contrast=0.9", "--max-steps", "1", "--leave-out-invalid",
+                 "--out", str(out), "--quiet"]) == 1
     assert "--max-steps 1" in capsys.readouterr().err and (out / "report.md").exists()
     out = tmp_path / "mcmc"
     assert main(["calibrate", str(path), "--fit", "pixel.demodulation_contrast", "--relative-error", "0.02",
-                 "--mcmc", "--walkers", "4", "--steps", "30", "--out", str(out), "--quiet"]) == 0
+                 "--mcmc", "--walkers", "4", "--steps", "30", "--leave-out-invalid", "--out", str(out), "--quiet"]) == 0
     assert (out / "corner.png").exists()
+
+
+def test_every_measured_point_constrains_the_calibration(tmp_path, capsys):
+    """Issue 34 item 1. A camera 30 % less noisy than the default model, measured from 0.34 m (where
+    the default camera keeps 9 % of its range) out: a fit of the contrast that ignores validity
+    follows the low noise until the ADC rails at 0.34 m and leaves that row out; the default fit
+    keeps it measured (headroom above the margin, named at its edge in the report and on the
+    console), never drops it, and its contrast lies between the two."""
+    d = np.concatenate([[0.34], D])
+    truth = tj.predict(tj.Params(), tj.Sweep("distance", d))
+    assert 0.05 < float(truth.headroom[0]) < 0.1
+    path = _file(tmp_path / "better.csv", {**_operating(d), "depth_std_m": 0.7 * np.asarray(truth.depth_std_m)})
+    fit = ["pixel.demodulation_contrast", "pixel.dark_slope_mean_v_per_s"]
+    free = ft.calibrate([path], fit=fit, relative_error=0.02, leave_out_invalid=True)
+    assert [(e["line"], e["reason"]) for e in free.excluded_at_solution] == [(8, "the fitted model saturates the ADC here")]
+    held = ft.calibrate([path], fit=fit, relative_error=0.02)
+    assert held.excluded_at_solution == [] and held.unexplained == []
+    assert [e["line"] for e in held.at_limit] == [8]
+
+    def headroom(cal):
+        config = tj.Config()
+        for name, value in cal.estimates.items():
+            config = config.replace(name, value)
+        return float(tj.predict(config.params, tj.Sweep("distance", d[:1])).headroom[0])
+
+    assert headroom(free) < 0 < headroom(held) < 2 * ft._problem.VALID_MARGIN
+    k_free, k_held = free.estimates[fit[0]], held.estimates[fit[0]]
+    assert 0.42 < k_held < k_free
+    held.write(tmp_path / "out")
+    assert "better.csv line 8: held at the edge" in (tmp_path / "out" / "report.md").read_text()
 
 
 def test_compare_outputs_keep_files_apart_and_show_names_as_text(files, tmp_path, capsys):

@@ -107,3 +107,32 @@ def test_linear_region_passes_every_charge_within_reach(sbi):
     same_flag = jnp.all(sbi_on == engaged[:, None, None], axis=(1, 2))
     assert bool(jnp.all(ok[linear] & same_flag[linear]))
     assert bool(jnp.all(stage.passes(n_a, n_b, reach, reach)[linear]))
+
+
+@pytest.mark.parametrize("sbi", [False, True])
+def test_headroom_is_positive_exactly_where_the_limit_does_not_saturate(sbi):
+    """The limit's headroom: the full well minus the fuller tap (saturation) or minus the taps'
+    difference (SBI), > 0 exactly where :meth:`flags` says unsaturated."""
+    limit = SBI(jnp.asarray(WELL)) if sbi else Saturation(jnp.asarray(WELL))
+    a, b = np.meshgrid(np.linspace(0.0, 3 * WELL, 61), np.linspace(0.0, 3 * WELL, 61))
+    headroom = np.asarray(limit.headroom(a, b))
+    np.testing.assert_allclose(headroom, WELL - (np.abs(a - b) if sbi else np.maximum(a, b)), rtol=1e-15)
+    np.testing.assert_array_equal(headroom > 0, ~np.asarray(limit.flags(a, b)[0]))
+
+
+def test_result_headroom_is_the_nearest_limit_and_marks_what_the_hard_model_measures():
+    """``Result.headroom`` > 0 exactly where the analytic path measures the point, over distances
+    that saturate the pixel (with and without SBI) and an ADC whose range the signal overruns; with
+    the ADC far away it is 1 - full_well_fraction (no SBI: the fuller tap over the full well)."""
+    import tofjax as tj
+
+    d = np.linspace(0.15, 1.5, 28)
+    sweep = tj.Sweep("distance", d)
+    base = tj.Config()
+    for config in (base, base.replace("pixel.sbi", False), base.replace("adc.v_ref_pos_v", 0.35)):
+        r = tj.predict(config.params, sweep)
+        headroom, valid = np.asarray(r.headroom), np.asarray(r.valid_fraction)
+        assert np.any(headroom < 0) and np.any(headroom > 0)
+        np.testing.assert_array_equal(headroom > 0, valid > 0)
+    far = tj.predict(base.replace("pixel.sbi", False).replace("adc.enabled", False).params, sweep)
+    np.testing.assert_allclose(far.headroom, 1.0 - np.asarray(far.full_well_fraction), rtol=1e-12, atol=1e-12)

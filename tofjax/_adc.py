@@ -114,6 +114,14 @@ def saturated(adc: ADC, u: Float[Array, "*b"]) -> Bool[Array, "*b"]:
     return (u < _edge(adc, jnp.asarray(1.0))) | (u >= _edge(adc, jnp.asarray(max_code(adc))))
 
 
+def headroom(adc: ADC, u: Float[Array, "*b"]) -> Float[Array, "*b"]:
+    """The distance, in LSB, from code position ``u`` to the nearer end of the range (:func:`saturated`
+    below 0), ``inf`` without an ADC."""
+    if not adc.enabled:
+        return jnp.full(jnp.shape(u), jnp.inf)
+    return jnp.minimum(u - _edge(adc, jnp.asarray(1.0)), _edge(adc, jnp.asarray(max_code(adc))) - u)
+
+
 def quantization_variance_lsb2(adc: ADC) -> Float[Array, ""]:
     """Variance of the quantisation error under noise spanning many codes, LSB^2.
 
@@ -204,6 +212,12 @@ class Readout(AbstractStage):
 
     def saturated(self, u: Array) -> Array:
         return saturated(self.adc, u)
+
+    def headroom(self, u: Array) -> Array:
+        """How far, in LSB, the code position ``u`` lies from the nearer end of the range (hard
+        criterion: >= 0 exactly where :meth:`saturated` is false, but for ``u`` on the top edge;
+        ``inf`` without an ADC)."""
+        return headroom(self.adc, u)
 
     @property
     def quantization_variance_lsb2(self) -> Array:

@@ -20,7 +20,7 @@ from ._adc import saturated
 from ._chain import Chain, build_chain
 from ._charges import TapCharges
 from ._params import Params
-from ._reduce import max_last, mean_last
+from ._reduce import max_last, mean_last, min_last
 from ._result import CAVEAT_COARSE_QUANTIZATION, CAVEAT_LOW_SNR, CAVEAT_NEAR_LIMIT, Result, snr_db
 from ._pattern import PixelPattern, one_pixel
 from ._smooth import Smooth
@@ -38,6 +38,18 @@ def full_well_fraction(n_a: Array, n_b: Array, full_well: Array) -> Array:
     if jnp.ndim(full_well) == 0:
         return max_last(jnp.maximum(n_a, n_b)) / full_well
     return max_last(jnp.maximum(n_a, n_b) / full_well)
+
+
+def headroom(chain: Chain, n_a: Array, n_b: Array, u: Array) -> Array:
+    """The nearest hard limit's distance at the expected tap charges ``n_a``, ``n_b`` (before the
+    limit) and code positions ``u``, as a fraction of its range, per point: the smallest over the
+    phase images of the limit stage's headroom over the full well (saturation; with SBI the taps'
+    difference) and the readout's distance to the ADC's nearer rail over its 2^N codes. > 0 where
+    the hard model measures the point's expected charges (:attr:`tofjax.Result.headroom`)."""
+    limit, readout = chain.limit, chain.readout
+    pixel = limit.headroom(n_a, n_b) / limit.full_well_e
+    adc = readout.headroom(u) / 2.0**readout.adc.resolution_bits
+    return min_last(jnp.minimum(pixel, adc))
 
 
 def unwrap_if_sweep(phase: Array, keep: Array) -> Array:
@@ -105,7 +117,7 @@ def analytic(chain: Chain, sweep: Sweep, m: Moments | None = None) -> Result:
         valid_fraction=valid.astype(float), pixel_saturated_fraction=pixel_sat.astype(float),
         adc_saturated_fraction=adc_sat.astype(float),
         sbi_active_fraction=jnp.any(sbi_on, axis=-1).astype(float),
-        full_well_fraction=full_well_fraction(n_a, n_b, limit.full_well_e),
+        full_well_fraction=full_well_fraction(n_a, n_b, limit.full_well_e), headroom=headroom(chain, n_a, n_b, u),
         caveats=caveats.astype(jnp.int32),
     )
 

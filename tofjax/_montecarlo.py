@@ -9,7 +9,7 @@ import jax.numpy as jnp
 import jax.random as jr
 from jaxtyping import Array, PRNGKeyArray
 
-from ._analytic import full_well_fraction, unwrap_if_sweep
+from ._analytic import full_well_fraction, headroom, unwrap_if_sweep
 from ._chain import Chain, build_chain
 from ._depth import unwrap_along_sweep
 from . import _jit
@@ -148,6 +148,7 @@ def assemble(chain: Chain, sweep: Sweep, prepared: Prepared, sums: Sums, kept, i
         valid_fraction=fraction(sums.valid), pixel_saturated_fraction=fraction(sums.pixel_saturated),
         adc_saturated_fraction=fraction(sums.adc_saturated), sbi_active_fraction=fraction(sums.sbi_engaged),
         full_well_fraction=full_well_fraction(n_a, n_b, chain.limit.full_well_e),
+        headroom=headroom(chain, n_a, n_b, chain.moments(charges).u),
     )
 
 

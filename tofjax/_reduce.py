@@ -50,3 +50,10 @@ def max_last(x: Array) -> Array:
     if x.shape[-1] > UNROLLED or x.shape[-1] == 0:
         return jnp.max(x, axis=-1)
     return functools.reduce(jnp.maximum, _slices(x))
+
+
+def min_last(x: Array) -> Array:
+    """``jnp.min(x, axis=-1)``."""
+    if x.shape[-1] > UNROLLED or x.shape[-1] == 0:
+        return jnp.min(x, axis=-1)
+    return functools.reduce(jnp.minimum, _slices(x))

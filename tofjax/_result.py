@@ -91,7 +91,11 @@ class Result(eqx.Module):
     deviation (LSB), SNR (Eq 5.1), and the fractions of frames that are valid, pixel-saturated,
     ADC-saturated and had SBI engaged, and ``full_well_fraction``: the expected charge of the
     fullest tap (before SBI and saturation) over the full well, the headroom to SBI/saturation
-    (> 1: SBI engaged or saturated). ``caveats`` (analytic path only): bits of :data:`CAVEATS`
+    (> 1: SBI engaged or saturated); ``headroom``: how far the expected charges lie from the nearest
+    hard limit, as a fraction of its range (the limit stage's headroom over the full well, the ADC's
+    distance to its nearer rail over its 2^N codes, the smallest over the phase images): > 0 where
+    the hard model measures the expected point, <= 0 where it saturates (the calibration keeps every
+    measured point above 0). ``caveats`` (analytic path only): bits of :data:`CAVEATS`
     where the closed form is not what frames would show (0: none).
 
     In the hard mode, statistics of points without two valid frames (analytic: whose expected
@@ -132,6 +136,7 @@ class Result(eqx.Module):
     adc_saturated_fraction: Float[Array, "*b"]
     sbi_active_fraction: Float[Array, "*b"]
     full_well_fraction: Float[Array, "*b"]
+    headroom: Float[Array, "*b"]
     caveats: Int[Array, "*b"] | None = None
     frames_tap_a_e: Float[Array, "*b frames phases"] | None = None
     frames_tap_b_e: Float[Array, "*b frames phases"] | None = None

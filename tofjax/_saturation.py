@@ -91,6 +91,11 @@ class AbstractLimit(AbstractStage):
         """(pixel saturated, SBI engaged) for tap charges ``n_a``, ``n_b`` (hard criteria)."""
 
     @abc.abstractmethod
+    def headroom(self, n_a: Array, n_b: Array) -> Array:
+        """The charge, in electrons, the taps ``n_a``, ``n_b`` could still gain before the pixel
+        saturates (hard criterion: > 0 exactly where :meth:`flags` says unsaturated; negative beyond)."""
+
+    @abc.abstractmethod
     def passes(self, n_a: Array, n_b: Array, reach_a: Array, reach_b: Array) -> Array:
         """Whether every charge within ``reach`` electrons of ``n`` keeps its differential and leaves
         the pixel unsaturated (the analytic path's linearisation holds there)."""
@@ -130,6 +135,9 @@ class Saturation(AbstractLimit):
         high = jnp.maximum(n_a, n_b)
         return high >= self.full_well_e, jnp.zeros(jnp.shape(high), dtype=bool)
 
+    def headroom(self, n_a, n_b):
+        return self.full_well_e - jnp.maximum(n_a, n_b)  # the fuller tap to the full well
+
     def passes(self, n_a, n_b, reach_a, reach_b):
         top = self.full_well_e - self._margin
         return (n_a + reach_a < top) & (n_b + reach_b < top)
@@ -167,6 +175,9 @@ class SBI(AbstractLimit):
 
     def flags(self, n_a, n_b):
         return jnp.abs(n_a - n_b) >= self.full_well_e, jnp.maximum(n_a, n_b) > self.full_well_e
+
+    def headroom(self, n_a, n_b):
+        return self.full_well_e - jnp.abs(n_a - n_b)  # SBI removes the common mode: the difference to the full well
 
     def passes(self, n_a, n_b, reach_a, reach_b):
         # The floors stay inactive: both taps above 0 and, once SBI removes the common mode,
