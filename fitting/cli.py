@@ -144,8 +144,8 @@ def run(args) -> int:
     if cal.at_limit:
         print(f"note: {len(cal.at_limit)} measured row(s) hold the fit at the edge of saturation or an ADC rail "
               f"(first {cal.at_limit[0]['file']}:{cal.at_limit[0]['line']}): the data ask for more dynamic range than "
-              "the configuration has; free pixel.full_well_e (or pixel.v_saturated_v, adc.*) with --fit if your data "
-              "sheet leaves it open (report.md lists them)")
+              "the configuration has; free the limit your data sheet leaves open with --fit (pixel.v_saturated_v, "
+              "pixel.full_well_e with --initial, adc.v_ref_pos_v; report.md lists the rows)")
     if ls.converged:  # the estimates as soon as the fit ends (a posterior may take minutes more)
         print(f"least squares: converged in {ls.steps} steps, chi^2/dof = {ls.chi2_per_dof:.3f} ({ls.dof} dof)")
         _print_estimates(ls)
