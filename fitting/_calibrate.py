@@ -30,8 +30,9 @@ from ._problem import VALID_MARGIN, Problem, batched_curves, build_problem, hard
 if TYPE_CHECKING:  # emcee (and scipy through it) are imported only when a posterior is sampled
     from ._posterior import PosteriorResult
 
-_LABEL = {"amplitude_mean_lsb": "amplitude [LSB]", "depth_std_m": "depth noise [mm]"}
-_SCALE = {"amplitude_mean_lsb": 1.0, "depth_std_m": 1e3}
+_LABEL = {"amplitude_mean_lsb": "amplitude [LSB]", "depth_std_m": "depth noise [mm]",
+          "depth_mean_m": "depth error: mean reading - distance [mm]"}
+_SCALE = {"amplitude_mean_lsb": 1.0, "depth_std_m": 1e3, "depth_mean_m": 1e3}
 
 
 @dataclasses.dataclass
@@ -363,12 +364,17 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
         label, xs = axis.axis_label, axis.display_scale
         dense_x, centre, lo, hi = bands[i]
         x_all = np.asarray(rows.sweep.values) * xs
-        fig = Figure(figsize=(11, 4.2), layout="constrained")
-        axes = fig.subplots(1, 2)
+        fig = Figure(figsize=(15, 4.2), layout="constrained")
+        axes = fig.subplots(1, len(OBSERVABLES))
         evaluated = cal.least_squares.evaluated[i]
+        period = float(rows.config.params.unambiguity_range_m)
         for k, (ax, name) in enumerate(zip(axes, OBSERVABLES, strict=True)):
+            data = rows.data[name][0]
+            if name == "depth_mean_m":  # the systematic error: the reading against the true distance
+                data = data - np.asarray(rows.sweep.distance_m)
+                data = data - period * np.round(data / period)
             idx = rows.used(name)
-            values, sigma = rows.data[name][0][idx], np.asarray(evaluated[k][1])[idx]
+            values, sigma = data[idx], np.asarray(evaluated[k][1])[idx]
             scale = _SCALE[name]
             xd = dense_x * xs
             if not np.any(np.isfinite(rows.data[name][0])):
@@ -376,9 +382,9 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
                         color="grey")
             # Rows left out, greyed, one legend entry per reason.
             for n_reason, reason in enumerate(sorted(set(rows.reasons.values()))):
-                out_idx = [j for j, why in rows.reasons.items() if why == reason and np.isfinite(rows.data[name][0][j])]
+                out_idx = [j for j, why in rows.reasons.items() if why == reason and np.isfinite(data[j])]
                 if out_idx:
-                    ax.plot(x_all[out_idx], rows.data[name][0][out_idx] * scale, "x", ms=5,
+                    ax.plot(x_all[out_idx], data[out_idx] * scale, "x", ms=5,
                             color=("0.55", "0.35", "0.7", "0.2")[n_reason % 4], label=f"left out: {reason}")
             if lo is not None:
                 ax.fill_between(xd, lo[k] * scale, hi[k] * scale, color="C1", alpha=0.3, label="model 68 % band")

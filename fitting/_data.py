@@ -18,7 +18,8 @@ Uncertainties, from ``n_frames`` and the model's own noise prediction at the cur
 normalisation), or one relative error of every measured value when given:
 - amplitude: standard error of a mean, ``sigma_amplitude / sqrt(n_frames)``;
 - depth standard deviation: standard error of a standard deviation of Gaussian data,
-  ``sigma_depth / sqrt(2 (n_frames - 1))``.
+  ``sigma_depth / sqrt(2 (n_frames - 1))``;
+- mean depth reading: standard error of a mean, ``sigma_depth / sqrt(n_frames)``.
 
 Rows that do not enter the fit, and why (counted in the diagnostics, and each row's reason kept in
 ``SweepRows.reasons`` for the report and the figures):
@@ -45,7 +46,9 @@ from tofjax.schema import KEY_BY_DOTTED, OPERATING_POINT_COLUMNS, SWEEP_AXES, co
 
 from ._parameters import CalibrationInputError
 
-OBSERVABLES = ("amplitude_mean_lsb", "depth_std_m")
+#: What a file's rows say and the fit explains: the amplitude, the depth noise and the mean distance
+#: reading (the camera's systematic error: offset and wiggling, against the row's true distance).
+OBSERVABLES = ("amplitude_mean_lsb", "depth_std_m", "depth_mean_m")
 
 
 @dataclasses.dataclass

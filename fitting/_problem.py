@@ -2,7 +2,8 @@
 
 The model side is :func:`tofjax.predict` (analytic path) in the smooth mode, so the residuals are
 differentiable everywhere, including near saturation. Residual = (model - data) / sigma, for the
-amplitude (LSB) and the depth standard deviation (m) of every row that enters the fit.
+amplitude (LSB), the depth standard deviation (m) and the mean depth reading (m; the model's taken in
+the period nearest the data's) of every row that enters the fit.
 
 A camera that delivered a row was neither saturated nor at an ADC rail there: with
 :attr:`Problem.validity` (the default) every row that enters the fit also has a one-sided residual
@@ -77,6 +78,7 @@ class Observables(eqx.Module):
     adc_saturated_fraction: Array
     caveats: Array  # tofjax.schema.CAVEATS bits (of any frequency)
     headroom: Array  # tofjax.Result.headroom (the smallest of any frequency)
+    period_m: Array  # the depth reading's period: the unambiguity range, or the frequencies' extended range
 
 
 def observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str,
@@ -87,7 +89,7 @@ def observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float,
         r = tj.predict(params, sweep, smooth=smooth)
         return Observables(r.amplitude_mean_lsb, r.amplitude_std_lsb, r.depth_mean_m, r.depth_std_m,
                            r.valid_fraction, r.pixel_saturated_fraction, r.adc_saturated_fraction, r.caveats,
-                           r.headroom)
+                           r.headroom, r.unambiguity_range_m)
     m = tj.predict(tj.Camera(params, smooth=smooth, frequencies_hz=frequencies_hz, fusion=fusion), sweep)
     p = m.per_frequency
     caveats = p.caveats[0]
@@ -95,7 +97,8 @@ def observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float,
         caveats = caveats | p.caveats[k]
     return Observables(p.amplitude_mean_lsb[0], p.amplitude_std_lsb[0], m.depth_mean_m, m.depth_std_m,
                        m.valid_fraction, jnp.max(p.pixel_saturated_fraction, axis=0),
-                       jnp.max(p.adc_saturated_fraction, axis=0), caveats, jnp.min(p.headroom, axis=0))
+                       jnp.max(p.adc_saturated_fraction, axis=0), caveats, jnp.min(p.headroom, axis=0),
+                       m.extended_range_m)
 
 
 #: :func:`hard_observables` runs a multiple of this many operating points, so that the checks at the
@@ -112,7 +115,7 @@ def hard_observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[f
     pad = lambda x: np.concatenate([np.asarray(x), np.repeat(np.asarray(x)[-1:], extra)])  # noqa: E731
     padded = tj.Sweep.points(sweep.variable, *(pad(getattr(sweep, name)) for name in OPERATING_POINT_COLUMNS))
     obs = jax.device_get(_hard_observables(params, padded, frequencies_hz, fusion))
-    return jax.tree_util.tree_map(lambda x: x[:n], obs)
+    return jax.tree_util.tree_map(lambda x: x[:n] if np.ndim(x) else x, obs)  # the period: one number
 
 
 @tj.jit
@@ -314,14 +317,20 @@ class Problem(eqx.Module):
                            group.fusion, self.smooth)
 
     def _rows(self, r: Observables, group: FileGroup):
-        """Per observable, (model, uncertainty) on the data rows of a group's result."""
+        """Per observable (:data:`~fitting._data.OBSERVABLES`), (model, uncertainty) on the data rows of
+        a group's result. The model's mean reading is taken in the period nearest the measured one
+        (a reading wraps at the unambiguity range), so that its residual is the difference of the
+        systematic errors."""
         n = group.frames
         amp_std, depth_std = r.amplitude_std_lsb[: group.n_data], r.depth_std_m[: group.n_data]
         if self.has_relative_error:
             sigmas = tuple(self.relative_error * jnp.abs(v) for v in group.values)
         else:
-            sigmas = (amp_std / jnp.sqrt(jnp.maximum(n, 1.0)), depth_std / jnp.sqrt(2.0 * jnp.maximum(n - 1.0, 1.0)))
-        models = (r.amplitude_mean_lsb[: group.n_data], depth_std)
+            sigmas = (amp_std / jnp.sqrt(jnp.maximum(n, 1.0)), depth_std / jnp.sqrt(2.0 * jnp.maximum(n - 1.0, 1.0)),
+                      depth_std / jnp.sqrt(jnp.maximum(n, 1.0)))  # standard errors of a mean, a std, a mean
+        off = r.depth_mean_m[: group.n_data] - group.values[2]
+        mean = group.values[2] + off - r.period_m * jnp.round(off / r.period_m)
+        models = (r.amplitude_mean_lsb[: group.n_data], depth_std, mean)
         return tuple((m, jnp.where(mask, s, 1.0)) for m, s, mask in zip(models, sigmas, group.masks, strict=True))
 
     def _penalty(self, r: Observables, group: FileGroup) -> Array:
@@ -387,13 +396,9 @@ class Problem(eqx.Module):
         return self.log_likelihood(self.constrained(u)) + self.log_prior(u)
 
     def dense_curves(self, theta: Float[Array, " params"]) -> tuple[Array, ...]:
-        """Per group, ``(files, 2, DENSE_POINTS)``: amplitude and depth noise on the dense points."""
-        out = []
-        for group in self.groups:
-            r = self.predict_group(theta, group)
-            curves = jnp.stack([r.amplitude_mean_lsb[group.n_data:], r.depth_std_m[group.n_data:]])
-            out.append(jnp.moveaxis(curves.reshape(2, len(group.files), -1), 0, 1))
-        return tuple(out)
+        """Per group, ``(files, observables, DENSE_POINTS)``: amplitude, depth noise and the depth
+        reading's error against the true distance (in the period nearest it) on the dense points."""
+        return tuple(_curves(self.predict_group(theta, group), group) for group in self.groups)
 
 
 def build_problem(parameters: tuple[FreeParameter, ...], rows: list[SweepRows], smooth: tj.Smooth | None = None,
@@ -417,6 +422,14 @@ def build_problem(parameters: tuple[FreeParameter, ...], rows: list[SweepRows], 
         groups=_groups(rows, merge_lamps=not any(p.name in BAND_PARAMETERS for p in parameters)),
         smooth=smooth if smooth is not None else tj.Smooth(), validity=validity,
     )
+
+
+def _curves(r: Observables, group: FileGroup) -> Array:
+    """``(files, observables, DENSE_POINTS)`` of a group's result (:meth:`Problem.dense_curves`)."""
+    error = r.depth_mean_m[group.n_data:] - group.sweep.distance_m[group.n_data:]
+    error = error - r.period_m * jnp.round(error / r.period_m)
+    curves = jnp.stack([r.amplitude_mean_lsb[group.n_data:], r.depth_std_m[group.n_data:], error])
+    return jnp.moveaxis(curves.reshape(len(OBSERVABLES), len(group.files), -1), 0, 1)
 
 
 class Linearization(eqx.Module):
@@ -444,8 +457,7 @@ def linearize(problem: Problem, u) -> Linearization:
             r = problem.predict_group(theta, group)
             per_group.append(problem._rows(r, group))
             penalties.append(problem._penalty(r, group))
-            c = jnp.stack([r.amplitude_mean_lsb[group.n_data:], r.depth_std_m[group.n_data:]])
-            curves.append(jnp.moveaxis(c.reshape(2, len(group.files), -1), 0, 1))
+            curves.append(_curves(r, group))
         residuals = problem._residuals(per_group, penalties)
         return (residuals, tuple(curves)), (theta, residuals, problem._split(per_group), tuple(curves))
 

@@ -174,7 +174,7 @@ def test_calibration_leaves_out_what_the_fitted_model_cannot_measure(files, tmp_
     assert cal.least_squares.converged and cal.least_squares.steps <= 2 * ft._least_squares.SEGMENT_STEPS
     assert "chi^2 fell by" in cal.least_squares.solver_message
     written = {p.name for p in cal.write(tmp_path / "out")}
-    assert {"compare_initial.html", "compare_calibrated.csv"} <= written
+    assert {"compare_initial.html", "compare_calibrated.csv", "fit_0_smooth.png", "residuals.png"} <= written
     report = (tmp_path / "out" / "report.md").read_text()
     assert "line 8: the fitted model saturates the pixel here" in report and "lower bound" in report
     out = tmp_path / "unconverged"
@@ -216,6 +216,33 @@ def test_every_measured_point_constrains_the_calibration(tmp_path, capsys):
     assert 0.42 < k_held < k_free
     held.write(tmp_path / "out")
     assert "better.csv line 8: held at the edge" in (tmp_path / "out" / "report.md").read_text()
+
+
+def test_the_systematic_error_is_an_observable(tmp_path):
+    """Issue 34 item 2. A camera whose demodulation phase is offset by 0.3 rad reads every distance
+    0.3 c / (4 pi f) = 89 mm long (plus the wiggling's change): calibrating the offset and the contrast
+    on its mean readings, noise and amplitudes recovers both (exact data: to 1e-6), across the
+    readings that wrap at the unambiguity range (2.0-2.6 m beyond 1.87 m)."""
+    d = np.linspace(0.5, 2.6, 12)
+    truth = tj.Config().replace("pixel.phase_offset_rad", 0.3).replace("pixel.demodulation_contrast", 0.4)
+    r = tj.predict(truth.params, tj.Sweep("distance", d), smooth=tj.Smooth())
+    du = float(truth.params.unambiguity_range_m)
+    assert np.any(d > du) and np.all(np.asarray(r.depth_mean_m) < du)  # the far readings wrap
+    # The offset reads as a path longer by 2 x shift: noise and ADC off, the offset camera's reading at d
+    # is the plain camera's at d + shift (the light's fall-off changes the amplitude only).
+    shift = 0.3 * 299792458.0 / (4 * np.pi * float(truth.params.illumination_waveform.modulation_frequency_hz))
+    ideal = tj.Config().replace("pixel.noise", False).replace("adc.enabled", False)
+    offset = tj.predict(ideal.replace("pixel.phase_offset_rad", 0.3).params, tj.Sweep("distance", [1.0]))
+    np.testing.assert_allclose(offset.depth_mean_m, tj.predict(ideal.params, tj.Sweep("distance", [1.0 + shift])).depth_mean_m,
+                               rtol=1e-9)
+    columns = {"depth_mean_m": r.depth_mean_m, "depth_std_m": r.depth_std_m, "amplitude_mean_lsb": r.amplitude_mean_lsb,
+               "amplitude_std_lsb": r.amplitude_std_lsb}
+    path = _file(tmp_path / "offset.csv", {**_operating(d), **{k: np.asarray(v) for k, v in columns.items()}})
+    cal = ft.calibrate([path], fit=["pixel.phase_offset_rad", "pixel.demodulation_contrast"])
+    np.testing.assert_allclose(cal.least_squares.estimate, [0.3, 0.4], rtol=1e-6)
+    assert cal.least_squares.chi2 < 1e-6
+    (summary,) = [s for s in cal.least_squares.residual_summary if s["observable"] == "depth_mean_m"]
+    assert summary["rows"] == len(d)
 
 
 def test_compare_outputs_keep_files_apart_and_show_names_as_text(files, tmp_path, capsys):

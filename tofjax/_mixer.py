@@ -35,12 +35,14 @@ def axis_etendue_m2_sr(params: Params, settings: FrameSettings) -> Array:
 
 
 def phase_drift_periods(pixel, temperature_c=None) -> Float[Array, "*b"]:
-    """The demodulation phase's drift with the sensor's temperature, in periods: k (T - T_ref) / 2 pi
-    (``pixel.phase_drift_rad_per_c``, from ``pixel.dark_reference_temperature_c``); it adds to every
-    light's delay, as a pixel's phase offset does (docs/model.md, "Dark current and temperature").
-    ``temperature_c``: the sensor's temperature per operating point (``None``: ``pixel.temperature_c``)."""
+    """The demodulation phase's offset and its drift with the sensor's temperature, in periods:
+    (phi_0 + k (T - T_ref)) / 2 pi (``pixel.phase_offset_rad``, ``pixel.phase_drift_rad_per_c`` from
+    ``pixel.dark_reference_temperature_c``); it adds to every light's delay, as a pixel's own phase
+    offset does (docs/model.md, "Dark current and temperature"). ``temperature_c``: the sensor's
+    temperature per operating point (``None``: ``pixel.temperature_c``)."""
     t = pixel.temperature_c if temperature_c is None else temperature_c
-    return pixel.phase_drift_rad_per_c * (t - pixel.dark_reference_temperature_c) / (2.0 * jnp.pi)
+    return (pixel.phase_offset_rad + pixel.phase_drift_rad_per_c * (t - pixel.dark_reference_temperature_c)) \
+        / (2.0 * jnp.pi)
 
 
 def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*b"],

@@ -151,6 +151,7 @@ class Pixel(eqx.Module):
     dark_slope_sigma_v_per_s: Scalar = _float("pixel", "dark_slope_sigma_v_per_s")
     dark_reference_temperature_c: Scalar = _float("pixel", "dark_reference_temperature_c")
     dark_doubling_temperature_c: Scalar = _float("pixel", "dark_doubling_temperature_c")
+    phase_offset_rad: Scalar = _float("pixel", "phase_offset_rad")
     phase_drift_rad_per_c: Scalar = _float("pixel", "phase_drift_rad_per_c")
     readout_noise_e: Scalar = _float("pixel", "readout_noise_e")
     readout_nonlinearity: Scalar = _float("pixel", "readout_nonlinearity")

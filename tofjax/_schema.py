@@ -221,6 +221,10 @@ KEYS: tuple[Key, ...] = (
        -273.15, 200.0, lo_open=True),
     _k("pixel", "dark_doubling_temperature_c", "float", 7.0, "degC",
        "temperature rise that doubles the dark current (5-8 degC for silicon image sensors)", 1.0, 50.0),
+    _k("pixel", "phase_offset_rad", "float", 0.0, "rad",
+       "offset of the demodulation phase (the drivers', the illumination's and the cables' delays): every "
+       "distance reads longer by phi c / (4 pi f), a camera's constant depth offset; 0 = none (fit it to a "
+       "measured file's depth_mean_m)", -3.141592653589793, 3.141592653589793),
     _k("pixel", "phase_drift_rad_per_c", "float", 0.0, "rad/degC",
        "temperature coefficient of the demodulation phase (the drivers' and the illumination's delays drift "
        "with temperature): every distance reads longer by k (T - T_ref) c / (4 pi f); 0 = none (unknown: "
