@@ -80,7 +80,10 @@ PRESETS: dict[str, Preset] = {
         title="The thesis' verification camera (pmd 2-tap PMD sensor, 224 x 172 pixels; thesis §5.5, Table A.1)",
         references={"thesis": _THESIS},
         values={"timing.frame_rate_hz": (5.0, "thesis Appendix A: the camera was configured to '5 Frames Per Second' "
-                                              "(4 phases, 2 ms exposure, 25 % illumination duty)")},
+                                              "(4 phases, 2 ms exposure, 25 % illumination duty)"),
+                "pixel.phase_offset_rad": (0.0, "thesis: its model has no phase offset (0: none)"),
+                "pixel.phase_drift_rad_per_c": (0.0, "thesis: no temperature drift in its model; it names temperature "
+                                                     "effects as future work (§6.1.2; 0: none)")},
         section_sources={
             "illumination": "thesis Table 4.2",
             "scene": "thesis Table 4.3 (operating point of §5.5.1)",
