@@ -97,6 +97,12 @@ class Chain(eqx.Module):
         path, :mod:`tofjax._analytic`)."""
         return fold_moments(self.stages, Moments.of(charges))
 
+    def readout_moments(self, charges: TapCharges) -> Moments:
+        """The moments through the stages up to the readout (its code position ``u`` among them), without
+        the demodulation's: what a limit's headroom needs (:func:`tofjax._analytic.headroom`)."""
+        last = next(i for i, s in enumerate(self.stages) if isinstance(s, Readout))
+        return fold_moments(self.stages[:last + 1], Moments.of(charges))
+
     def drawn_moments(self, charges: TapCharges) -> Moments:
         """The moments through the stages the Monte Carlo draws (up to the last noise source): the
         taps' variances before the limit, the held charges, the variances added after it."""

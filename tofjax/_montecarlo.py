@@ -148,7 +148,7 @@ def assemble(chain: Chain, sweep: Sweep, prepared: Prepared, sums: Sums, kept, i
         valid_fraction=fraction(sums.valid), pixel_saturated_fraction=fraction(sums.pixel_saturated),
         adc_saturated_fraction=fraction(sums.adc_saturated), sbi_active_fraction=fraction(sums.sbi_engaged),
         full_well_fraction=full_well_fraction(n_a, n_b, chain.limit.full_well_e),
-        headroom=headroom(chain, n_a, n_b, chain.moments(charges).u),
+        headroom=headroom(chain, n_a, n_b, chain.readout_moments(charges).u),
     )
 
 
