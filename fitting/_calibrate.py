@@ -479,7 +479,8 @@ def _report(cal: Calibration, figures: list[Path], comparisons=()) -> Summary:
         if cal.at_limit:
             limits.append("The data ask for the dynamic range the model has at these rows: if the data sheet leaves "
                           "the full well, the saturation voltage or the ADC's range open, fit them too (--fit "
-                          "pixel.full_well_e, ...); the estimates' sigmas there hold the edge, not only the data.")
+                          "pixel.v_saturated_v, adc.v_ref_pos_v, or pixel.full_well_e with --initial); the "
+                          "estimates' sigmas there hold the edge, not only the data.")
         elif not cal.unexplained:
             limits.append("No row is at its edge: the constraint does not act at the solution.")
         report.sections.append(Section("Validity of the measured rows", [limits]))

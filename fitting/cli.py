@@ -97,6 +97,16 @@ def _check_outputs(args) -> None:
     check_output_dir(args.out, "--out", args)
 
 
+def offset_note(ls) -> str | None:
+    """A note when a file's mean readings lie more than 3 sigma from the model's on average and the
+    fit leaves the camera's phase offset out (a constant depth offset the model lacks), else ``None``."""
+    offset = [s for s in ls.residual_summary if s["observable"] == "depth_mean_m" and s["rows"] and abs(s["mean"]) > 3.0]
+    if not offset or "pixel.phase_offset_rad" in ls.names:
+        return None
+    return (f"note: the mean readings of {offset[0]['file']} lie {offset[0]['mean']:+.1f} sigma from the model's on "
+            "average: a camera's depth offset; fit it too (--fit ...,pixel.phase_offset_rad)")
+
+
 def _print_estimates(ls, posterior=None) -> None:
     width = max(len(n) for n in ls.names)
     for n, u, e, s in zip(ls.names, ls.units, ls.estimate, ls.sigma, strict=True):
@@ -149,6 +159,9 @@ def run(args) -> int:
     if ls.converged:  # the estimates as soon as the fit ends (a posterior may take minutes more)
         print(f"least squares: converged in {ls.steps} steps, chi^2/dof = {ls.chi2_per_dof:.3f} ({ls.dof} dof)")
         _print_estimates(ls)
+        note = offset_note(ls)
+        if note:
+            print(note)
         if args.mcmc:
             from ._posterior import ShortChainWarning
 

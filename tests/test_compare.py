@@ -3,6 +3,7 @@ additions, multi-frequency fusion, datasheet inputs and validity at the solution
 
 import base64
 import re
+import types
 
 import jax
 import numpy as np
@@ -188,7 +189,7 @@ def test_calibration_leaves_out_what_the_fitted_model_cannot_measure(files, tmp_
     assert (out / "corner.png").exists()
 
 
-def test_every_measured_point_constrains_the_calibration(tmp_path, capsys):
+def test_every_measured_point_constrains_the_calibration(tmp_path):
     """Issue 34 item 1. A camera 30 % less noisy than the default model, measured from 0.34 m (where
     the default camera keeps 9 % of its range) out: a fit of the contrast that ignores validity
     follows the low noise until the ADC rails at 0.34 m and leaves that row out; the default fit
@@ -214,8 +215,7 @@ def test_every_measured_point_constrains_the_calibration(tmp_path, capsys):
     assert headroom(free) < 0 < headroom(held) < 2 * ft._problem.VALID_MARGIN
     k_free, k_held = free.estimates[fit[0]], held.estimates[fit[0]]
     assert 0.42 < k_held < k_free
-    held.write(tmp_path / "out")
-    assert "better.csv line 8: held at the edge" in (tmp_path / "out" / "report.md").read_text()
+    assert "better.csv line 8: held at the edge" in ft._calibrate._report(held, []).markdown()
 
 
 def test_the_systematic_error_is_an_observable(tmp_path):
@@ -243,6 +243,15 @@ def test_the_systematic_error_is_an_observable(tmp_path):
     assert cal.least_squares.chi2 < 1e-6
     (summary,) = [s for s in cal.least_squares.residual_summary if s["observable"] == "depth_mean_m"]
     assert summary["rows"] == len(d)
+    # Without the offset the mean readings lie far off: calibrate's console says to fit it.
+    from fitting.cli import offset_note
+
+    off = {**summary, "mean": 40.0}
+    assert offset_note(types.SimpleNamespace(residual_summary=[off], names=("pixel.demodulation_contrast",))) == (
+        f"note: the mean readings of {path} lie +40.0 sigma from the model's on average: a camera's depth offset; "
+        "fit it too (--fit ...,pixel.phase_offset_rad)")
+    assert offset_note(cal.least_squares) is None
+    assert offset_note(types.SimpleNamespace(residual_summary=[off], names=cal.least_squares.names)) is None
 
 
 def test_compare_outputs_keep_files_apart_and_show_names_as_text(files, tmp_path, capsys):

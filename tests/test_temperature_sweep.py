@@ -80,16 +80,20 @@ def test_thermal_sources_are_exactly_unchanged_at_the_pixels_temperature():
 
 def test_monte_carlo_reads_each_points_temperature():
     """The Monte Carlo's draw takes each point's kTC and dark noise from its own temperature: a
-    sweep whose points carry 70 °C draws exactly the frames of the camera configured at 70 °C (same
-    key, same point indices), to 1e-12."""
+    25 °C camera's sweep whose points carry 70 °C draws exactly the frames of the camera configured
+    at 70 °C (same key, same point indices; the same program, the kTC variances scaled by T / T_pixel
+    against computed at 70 °C), to 1e-12."""
     params = CONFIG.params
     n = 2
     given = tj.Sweep.points("distance", np.full(n, 1.0), np.full(n, 20.0), np.full(n, 2e-3), np.full(n, 70.0))
     ours = tj.simulate(params, given, jax.random.key(3), 64)
-    theirs = tj.simulate(_at(params, 70.0), tj.Sweep("distance", np.full(n, 1.0)), jax.random.key(3), 64)
+    theirs = tj.simulate(_at(params, 70.0), given, jax.random.key(3), 64)
+    assert float(theirs.noise.reset_e[0]) > 1.03 * float(tj.predict(params, tj.Sweep("distance", [1.0])).noise.reset_e[0])
     for name in ("depth_mean_m", "depth_std_m", "amplitude_mean_lsb", "amplitude_std_lsb", "code_mean"):
         np.testing.assert_allclose(getattr(ours, name), getattr(theirs, name), rtol=1e-12, err_msg=name)
     np.testing.assert_array_equal(ours.temperature_c, np.full(n, 70.0))
+    with pytest.raises(ValueError, match="Sweep.points: a temperature sweep needs its temperature_c column"):
+        tj.Sweep.points("temperature", np.ones(n), np.ones(n), np.ones(n))
 
 
 def test_sweep_file_round_trip_and_versions(swept, tmp_path):

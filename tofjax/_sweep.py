@@ -77,6 +77,8 @@ class Sweep(eqx.Module):
         if variable not in SWEEP_AXES:
             raise ValueError(f"sweep = {variable!r} is not allowed: expected one of "
                              + ", ".join(repr(s) for s in SWEEPS) + suggest(variable, SWEEPS))
+        if columns[SWEEP_AXES[variable].column] is None:
+            raise ValueError(f"Sweep.points: a {variable} sweep needs its {SWEEP_AXES[variable].column} column")
         return cls(variable, columns[SWEEP_AXES[variable].column], **columns)
 
     @classmethod
