@@ -12,8 +12,9 @@ phase image only. The truth (``radial_m``) and the background light are the scen
 centre time, (N t + (N - 1) t_ro) / 2, where the scene stands as given.
 
 What moves: a :class:`MovingScene` (:func:`moving`: a scene's primitives and patches in rigid
-motion, a constant velocity and a constant angular velocity about a pivot), or a user's renderer's returns, one :class:`tofjax.Returns` per
-phase image (:func:`per_phase_returns`). A scene that does not move is the static scene, to the bit.
+motion, a constant velocity and a constant angular velocity about a pivot), or a user's renderer's
+returns, one :class:`tofjax.Returns` per phase image (:func:`per_phase_returns`). A scene that does
+not move is the static scene, to the bit.
 """
 
 from __future__ import annotations
