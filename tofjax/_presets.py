@@ -81,6 +81,17 @@ PRESETS: dict[str, Preset] = {
         references={"thesis": _THESIS},
         values={"timing.frame_rate_hz": (5.0, "thesis Appendix A: the camera was configured to '5 Frames Per Second' "
                                               "(4 phases, 2 ms exposure, 25 % illumination duty)"),
+                "pixel.collection_depth_m": (0.0, "thesis: one responsivity for every wavelength (Table 4.5's "
+                                                  "photo_responsivity; 0: flat)"),
+                "pixel.dark_reference_temperature_c": (25.0, "thesis: its dark slopes (Table 4.5) carry no temperature; "
+                                                             "taken at the default sensor temperature"),
+                "pixel.dark_doubling_temperature_c": (7.0, "thesis: no temperature scaling of the dark current; the "
+                                                           "doubling acts only away from the reference temperature "
+                                                           "(7 degC: A. Theuwissen, Harvest Imaging, 2009)"),
+                "pixel.readout_noise_e": (0.0, "thesis: no read noise beyond the kTC noise in its model (§4.2.12-4.2.14)"),
+                "pixel.readout_nonlinearity": (0.0, "thesis: a linear readout in its model"),
+                "pixel.full_well_e": (0.0, "thesis: the full well follows from v_reset, v_saturated and the "
+                                           "capacitances (§3.2.5; 0: derived)"),
                 "pixel.phase_offset_rad": (0.0, "thesis: its model has no phase offset (0: none)"),
                 "pixel.phase_drift_rad_per_c": (0.0, "thesis: no temperature drift in its model; it names temperature "
                                                      "effects as future work (§6.1.2; 0: none)")},
