@@ -25,7 +25,7 @@ from ._compare import FileComparison, compare_measurements, write_comparison
 from ._data import OBSERVABLES, SweepRows, load_rows, read_measurement
 from ._least_squares import ConvergenceError, LeastSquaresResult, fit_least_squares
 from ._parameters import CalibrationInputError, make_parameters
-from ._problem import VALID_MARGIN, Problem, batched_curves, build_problem, hard_observables
+from ._problem import VALID_MARGIN, Problem, batched_curves, build_problem, hard_observables, nearest_period
 
 if TYPE_CHECKING:  # emcee (and scipy through it) are imported only when a posterior is sampled
     from ._posterior import PosteriorResult
@@ -172,34 +172,33 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
     problem = build_problem(parameters, rows, smooth, relative_error, validity=not leave_out_invalid)
     ls = fit_least_squares(problem, rows, max_steps=max_steps, throw=False)
     excluded: list[dict] = []
-    if not leave_out_invalid:
-        bad = invalid_at(problem, ls.estimate, rows)
+    unexplained: list[dict] = []
+    edge: list[dict] = []
+    if leave_out_invalid:
+        for _ in range(MAX_REFITS):
+            bad = invalid_at(problem, ls.estimate, rows)
+            if not bad:
+                break
+            for i, k, reason in bad:
+                r = rows[i]
+                for name in OBSERVABLES:
+                    r.data[name][1][k] = False
+                r.reasons[k] = reason
+                r.excluded["at_solution"] = r.excluded.get("at_solution", 0) + 1
+                excluded.append({"file": r.path, "line": _line(r, k), "reason": reason})
+            if sum(len(r.used(n)) for r in rows for n in OBSERVABLES) < len(parameters):
+                raise CalibrationInputError("the fitted model cannot measure the rows the fit needs: "
+                                            + "; ".join(f"{Path(e['file']).name}:{e['line']}: {e['reason']}" for e in excluded))
+            parameters = tuple(dataclasses.replace(p, initial=_inside(p, float(v)))
+                               for p, v in zip(parameters, ls.estimate, strict=True))
+            problem = build_problem(parameters, rows, smooth, relative_error, validity=False)
+            ls = fit_least_squares(problem, rows, max_steps=max_steps, throw=False)
+    else:
         unexplained = [{"file": rows[i].path, "line": _line(rows[i], k),
-                        "reason": f"{reason}, where the camera measured it"} for i, k, reason in bad]
-        cal = Calibration(config, rows, problem, ls, None, [], unexplained, at_limit(problem, ls.estimate, rows))
-        if mcmc and ls.converged:
-            cal = cal.with_posterior(walkers=walkers, steps=steps, seed=seed, backend=backend, resume=resume,
-                                     progress=progress)
-        return cal
-    for _ in range(MAX_REFITS):
-        bad = invalid_at(problem, ls.estimate, rows)
-        if not bad:
-            break
-        for i, k, reason in bad:
-            r = rows[i]
-            for name in OBSERVABLES:
-                r.data[name][1][k] = False
-            r.reasons[k] = reason
-            r.excluded["at_solution"] = r.excluded.get("at_solution", 0) + 1
-            excluded.append({"file": r.path, "line": _line(r, k), "reason": reason})
-        if sum(len(r.used(n)) for r in rows for n in OBSERVABLES) < len(parameters):
-            raise CalibrationInputError("the fitted model cannot measure the rows the fit needs: "
-                                        + "; ".join(f"{Path(e['file']).name}:{e['line']}: {e['reason']}" for e in excluded))
-        parameters = tuple(dataclasses.replace(p, initial=_inside(p, float(v)))
-                           for p, v in zip(parameters, ls.estimate, strict=True))
-        problem = build_problem(parameters, rows, smooth, relative_error, validity=False)
-        ls = fit_least_squares(problem, rows, max_steps=max_steps, throw=False)
-    cal = Calibration(config, rows, problem, ls, None, excluded)
+                        "reason": f"{reason}, where the camera measured it"}
+                       for i, k, reason in invalid_at(problem, ls.estimate, rows)]
+        edge = at_limit(problem, ls.estimate, rows)
+    cal = Calibration(config, rows, problem, ls, None, excluded, unexplained, edge)
     if mcmc and ls.converged:
         cal = cal.with_posterior(walkers=walkers, steps=steps, seed=seed, backend=backend, resume=resume,
                                  progress=progress)
@@ -371,8 +370,8 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
         for k, (ax, name) in enumerate(zip(axes, OBSERVABLES, strict=True)):
             data = rows.data[name][0]
             if name == "depth_mean_m":  # the systematic error: the reading against the true distance
-                data = data - np.asarray(rows.sweep.distance_m)
-                data = data - period * np.round(data / period)
+                truth = np.asarray(rows.sweep.distance_m)
+                data = np.asarray(nearest_period(data, truth, period)) - truth
             idx = rows.used(name)
             values, sigma = data[idx], np.asarray(evaluated[k][1])[idx]
             scale = _SCALE[name]

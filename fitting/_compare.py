@@ -37,7 +37,7 @@ from tofjax.report import Figure, Section, Summary, Table
 from tofjax.schema import OPERATING_POINT_COLUMNS, SWEEP_AXES
 
 from ._data import Measurement, read_measurement
-from ._problem import DENSE_POINTS, dense_sweep, hard_observables
+from ._problem import DENSE_POINTS, dense_sweep, hard_observables, nearest_period
 
 #: Ratios within this factor of 1 count as agreeing in the summaries (30 %).
 AGREEMENT = 0.3
@@ -94,10 +94,6 @@ def _rows_and_dense(m: Measurement, dense: dict[str, np.ndarray]) -> tj.Sweep:
                                           for name in OPERATING_POINT_COLUMNS})
 
 
-def _nearest_period(depth: np.ndarray, truth: np.ndarray, period: float) -> np.ndarray:
-    return depth + period * np.round((truth - depth) / period)
-
-
 def compare_measurement(m: Measurement) -> FileComparison:
     """The model beside one checked file (module docstring)."""
     dense = dense_sweep(m.sweep, DENSE_POINTS)
@@ -114,13 +110,13 @@ def compare_measurement(m: Measurement) -> FileComparison:
               else c / (2.0 * m.frequencies_hz[0]))
     truth = np.asarray(m.sweep.distance_m)
     model = {name: get(name, "rows") for name in _QUANTITIES}
-    model["depth_mean_m"] = _nearest_period(model["depth_mean_m"], truth, period)
+    model["depth_mean_m"] = np.asarray(nearest_period(model["depth_mean_m"], truth, period))
     measured = {name: np.asarray(m.columns[name], dtype=float) for name in _QUANTITIES}
     error_measured = measured["depth_mean_m"] - truth
     wrapped = np.abs(error_measured) > 0.5 * period
     error_measured = np.where(wrapped, error_measured - period * np.round(error_measured / period), error_measured)
     wrapped &= len(m.frequencies_hz) > 1  # one frequency: a wrapped depth is what the camera reports
-    dense_depth = _nearest_period(get("depth_mean_m", "dense"), dense["distance_m"], period)
+    dense_depth = np.asarray(nearest_period(get("depth_mean_m", "dense"), dense["distance_m"], period))
     flags: list[list[str]] = []
     pixel, adc, caveats = get("pixel_saturated_fraction", "rows"), get("adc_saturated_fraction", "rows"), \
         get("caveats", "rows").astype(int)

@@ -53,6 +53,12 @@ VALID_MARGIN = 1e-3
 VALID_SCALE = 1e-4
 
 
+def nearest_period(depth, reference, period):
+    """``depth`` moved by whole ``period``s to the one nearest ``reference`` (a reading wraps at the
+    unambiguity range, or at the fused frequencies' extended range). Traced or host arrays."""
+    return depth + period * jnp.round((reference - depth) / period)
+
+
 def dense_sweep(s: tj.Sweep, n: int = DENSE_POINTS) -> dict[str, np.ndarray]:
     """Operating points along a file's swept quantity (its rows' sweep ``s``), ``n`` of them,
     interpolated between its rows."""
@@ -328,8 +334,7 @@ class Problem(eqx.Module):
         else:
             sigmas = (amp_std / jnp.sqrt(jnp.maximum(n, 1.0)), depth_std / jnp.sqrt(2.0 * jnp.maximum(n - 1.0, 1.0)),
                       depth_std / jnp.sqrt(jnp.maximum(n, 1.0)))  # standard errors of a mean, a std, a mean
-        off = r.depth_mean_m[: group.n_data] - group.values[2]
-        mean = group.values[2] + off - r.period_m * jnp.round(off / r.period_m)
+        mean = nearest_period(r.depth_mean_m[: group.n_data], group.values[2], r.period_m)
         models = (r.amplitude_mean_lsb[: group.n_data], depth_std, mean)
         return tuple((m, jnp.where(mask, s, 1.0)) for m, s, mask in zip(models, sigmas, group.masks, strict=True))
 
@@ -426,8 +431,8 @@ def build_problem(parameters: tuple[FreeParameter, ...], rows: list[SweepRows], 
 
 def _curves(r: Observables, group: FileGroup) -> Array:
     """``(files, observables, DENSE_POINTS)`` of a group's result (:meth:`Problem.dense_curves`)."""
-    error = r.depth_mean_m[group.n_data:] - group.sweep.distance_m[group.n_data:]
-    error = error - r.period_m * jnp.round(error / r.period_m)
+    truth = group.sweep.distance_m[group.n_data:]
+    error = nearest_period(r.depth_mean_m[group.n_data:], truth, r.period_m) - truth
     curves = jnp.stack([r.amplitude_mean_lsb[group.n_data:], r.depth_std_m[group.n_data:], error])
     return jnp.moveaxis(curves.reshape(len(OBSERVABLES), len(group.files), -1), 0, 1)
 

@@ -61,7 +61,7 @@ from typing import IO
 
 import numpy as np
 
-from ._schema import EXPOSURE_DEFINITIONS, FUSIONS, SWEEP_AXES, SWEEPS
+from ._schema import EXPOSURE_DEFINITIONS, FUSIONS, OPERATING_POINT_COLUMNS, SWEEP_AXES, SWEEPS
 
 FORMAT_NAME = "tofjax-sweep"
 FORMAT_VERSION = 3
@@ -513,11 +513,9 @@ def operating_point_columns(result, index=()) -> dict[str, np.ndarray]:
     multi-frequency run's first frequency), in the file's order: distance, integration time,
     illuminance, and the temperature for a temperature sweep (version 3; other files leave it to the
     configured ``pixel.temperature_c``, so that they stay readable by older readers)."""
-    cols = {name: np.asarray(getattr(result, name))[index]
-            for name in ("distance_m", "integration_time_s", "illuminance_lx")}
-    if result.sweep_variable in V3_SWEEPS:
-        cols["temperature_c"] = np.asarray(result.temperature_c)[index]
-    return cols
+    names = [c for c in REQUIRED_COLUMNS_V2 if c in OPERATING_POINT_COLUMNS]
+    names += list(V3_COLUMNS) if result.sweep_variable in V3_SWEEPS else []
+    return {name: np.asarray(getattr(result, name))[index] for name in names}
 
 
 def columns_from_result(result) -> dict[str, np.ndarray]:
