@@ -15,6 +15,7 @@ _EXPORTS = {
     "Calibration": "_calibrate", "calibrate": "_calibrate",
     "SweepRows": "_data", "load_rows": "_data", "Measurement": "_data", "read_measurement": "_data",
     "FileComparison": "_compare", "compare": "_compare", "write_comparison": "_compare",
+    "BoundCheck": "_compare", "check_bounds": "_compare",
     "ConvergenceError": "_least_squares", "LeastSquaresResult": "_least_squares",
     "fit_least_squares": "_least_squares",
     "CalibrationInputError": "_parameters", "FreeParameter": "_parameters", "fittable_names": "_parameters",
@@ -39,7 +40,7 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # pragma: no cover
     from ._calibrate import Calibration, calibrate  # noqa: F401
-    from ._compare import FileComparison, compare, write_comparison  # noqa: F401
+    from ._compare import BoundCheck, FileComparison, check_bounds, compare, write_comparison  # noqa: F401
     from ._data import Measurement, SweepRows, load_rows, read_measurement  # noqa: F401
     from ._least_squares import ConvergenceError, LeastSquaresResult, fit_least_squares  # noqa: F401
     from ._parameters import CalibrationInputError, FreeParameter, fittable_names, make_parameters  # noqa: F401

@@ -17,8 +17,15 @@ unambiguity range from the real distance has its error taken modulo that range (
 frequency reports wrapped depths); with several frequencies, whose camera claims the extended
 range, such a row is also flagged ``wrapped`` (a wrong unwrap).
 
+A file's bounds (format 4: a datasheet's promise, "temporal noise < 1 mm up to 5.5 m", written per
+row, :func:`tofjax.sweepfile.bound_column`) are checked against the same model: each row's bound is
+met or not, with its margin (bound minus model for an upper bound, model minus bound for a lower
+one; positive where met). A row the model cannot measure (saturated) does not meet a bound on its
+depth: the specification promises a depth there.
+
 Outputs (:func:`write_comparison`): ``comparison.csv`` (every row), ``comparison.md`` (per-file
-summary and table), ``comparison.html`` (the same with the figures embedded) and one PNG per file.
+summary and table), ``comparison.html`` (the same with the figures embedded), one PNG per file and,
+where a file states bounds, ``bounds.csv`` (every bound at every row).
 """
 
 from __future__ import annotations
@@ -35,6 +42,7 @@ import tofjax as tj
 from tofjax.outputs import atomic_path, write_bytes, write_text
 from tofjax.report import Figure, Section, Summary, Table
 from tofjax.schema import OPERATING_POINT_COLUMNS, SWEEP_AXES
+from tofjax.sweepfile import BOUND_RELATIONS, bound_column
 
 from ._data import Measurement, read_measurement
 from ._problem import DENSE_POINTS, dense_sweep, hard_observables, nearest_period
@@ -42,6 +50,58 @@ from ._problem import DENSE_POINTS, dense_sweep, hard_observables, nearest_perio
 #: Ratios within this factor of 1 count as agreeing in the summaries (30 %).
 AGREEMENT = 0.3
 _QUANTITIES = ("depth_mean_m", "depth_std_m", "amplitude_mean_lsb", "amplitude_std_lsb")
+
+
+@dataclasses.dataclass
+class BoundCheck:
+    """One bound column of a file against the model: per row the ``bound`` (NaN: none there), the
+    ``model``'s value (NaN: it has none, saturated), whether it is ``met`` and the ``margin``
+    (positive on the met side: bound - model for ``le``/``lt``, model - bound for ``ge``/``gt``)."""
+
+    column: str
+    quantity: str
+    relation: str
+    statement: str
+    bound: np.ndarray
+    model: np.ndarray
+    met: np.ndarray
+    margin: np.ndarray
+
+    @property
+    def text(self) -> str:
+        """``depth_std_m < bound`` style."""
+        return f"{self.quantity} {BOUND_RELATIONS[self.relation]}"
+
+    def summary(self) -> dict:
+        """Rows with a bound, those met, and the worst row (smallest margin; a row without a model
+        value is worst) with its margin and the model's value over the bound there."""
+        rows = np.flatnonzero(np.isfinite(self.bound))
+        if not len(rows):
+            return {"rows": 0, "met": 0}
+        key = np.where(np.isfinite(self.margin[rows]), self.margin[rows], -np.inf)
+        worst = int(rows[int(np.argmin(key))])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = self.model[worst] / self.bound[worst]
+        return {"rows": int(len(rows)), "met": int(np.sum(self.met[rows])), "worst": worst,
+                "margin": float(self.margin[worst]), "model_over_bound": float(ratio)}
+
+
+def check_bounds(data, model: dict[str, np.ndarray], distance_m: np.ndarray) -> list[BoundCheck]:
+    """Every bound column of a sweep file (``data``: :class:`tofjax.sweepfile.SweepData`) against the
+    model's per-row values (``model``: :data:`_QUANTITIES`, the expected depth already continued to the
+    period nearest the true distance)."""
+    values = {"depth_std_m": model["depth_std_m"], "amplitude_mean_lsb": model["amplitude_mean_lsb"],
+              "depth_error_m": np.abs(model["depth_mean_m"] - distance_m)}
+    out = []
+    for column in data.bounds:
+        quantity, relation = bound_column(column)
+        bound, value = np.asarray(data.columns[column], dtype=float), np.asarray(values[quantity], dtype=float)
+        upper = relation in ("le", "lt")
+        margin = bound - value if upper else value - bound
+        with np.errstate(invalid="ignore"):
+            met = np.isfinite(margin) & ((margin >= 0) if relation in ("le", "ge") else (margin > 0))
+        out.append(BoundCheck(column, quantity, relation, data.metadata[f"bound.{column}"], bound, value, met, margin))
+    return out
 
 
 @dataclasses.dataclass
@@ -67,6 +127,8 @@ class FileComparison:
     flags: list[list[str]]
     dense_x: np.ndarray
     dense: dict[str, np.ndarray]
+    #: The file's bounds against the model (format 4; empty for a file of measured values only).
+    bounds: list[BoundCheck] = dataclasses.field(default_factory=list)
 
     def ratio(self, name: str) -> np.ndarray:
         """model / measured of ``name`` per row (NaN where either is missing or the measurement is 0)."""
@@ -148,7 +210,8 @@ def compare_measurement(m: Measurement) -> FileComparison:
                                 "depth_std_m": get("depth_std_m", "dense"),
                                 "amplitude_mean_lsb": get("amplitude_mean_lsb", "dense"),
                                 "amplitude_std_lsb": get("amplitude_std_lsb", "dense"),
-                                "distance_m": dense["distance_m"]})
+                                "distance_m": dense["distance_m"]},
+        bounds=check_bounds(m.data, model, truth))
 
 
 def compare(paths, config: tj.Config | None = None) -> list[FileComparison]:
@@ -267,6 +330,12 @@ def figure(c: FileComparison, title: str = ""):
         ax.plot(dx, scale * curve, "C1-", lw=1.2, label=model_label)
         ax.set_ylabel(ylabel)
         ax.set_title(heading, fontsize=10)
+    for b in c.bounds:  # a datasheet's bound where it holds, in the panel of its quantity
+        ok = np.isfinite(b.bound)
+        panel, scale = {"depth_error_m": (1, 1e3), "amplitude_mean_lsb": (2, 1.0), "depth_std_m": (3, 1e3)}[b.quantity]
+        axes[panel].plot(x[ok], scale * b.bound[ok], "C3--", lw=1.0, label=f"bound ({BOUND_RELATIONS[b.relation]})")
+        if b.quantity == "depth_error_m":  # the bound is on the error's magnitude
+            axes[panel].plot(x[ok], -scale * b.bound[ok], "C3--", lw=1.0)
     axes[0].plot(dx, c.dense["distance_m"], "k--", lw=0.8, label="real distance")
     axes[1].axhline(0, color="k", lw=0.6)
     ax = axes[5]
@@ -308,6 +377,70 @@ def _summary_table(comparisons: list[FileComparison]) -> Table:
                   "flagged rows"), tuple(rows))
 
 
+def _quantity_value(quantity: str, x: float) -> str:
+    """A bounded quantity's value in its display unit (lengths in mm)."""
+    if not math.isfinite(x):
+        return "no value"
+    return f"{1e3 * x:.4g} mm" if quantity.endswith("_m") else f"{x:.4g} LSB"
+
+
+def bound_lines(c: FileComparison) -> list[str]:
+    """One line per bound of a file: met rows, the worst margin (absolute and relative to the bound)
+    and where (the console's and the report's words)."""
+    axis = SWEEP_AXES[c.sweep_variable]
+    out = []
+    for b in c.bounds:
+        s = b.summary()
+        if not s["rows"]:
+            continue
+        i = s["worst"]
+        where = f"{axis.axis_label} = {c.x[i] * axis.display_scale:.4g}"
+        if not math.isfinite(s["margin"]):
+            worst = f"the model has no value (saturated) at {where}"
+        else:
+            worst = (f"worst margin {'+' if s['margin'] >= 0 else '-'}{_quantity_value(b.quantity, abs(s['margin']))} "
+                     f"(model/bound {s['model_over_bound']:.3g}) at {where}")
+        verdict = "met" if s["met"] == s["rows"] else "NOT met"
+        out.append(f"{b.column} ({b.text} bound): {verdict}, {s['met']} of {s['rows']} rows meet it; {worst}")
+    return out
+
+
+def _bounds_table(comparisons: list[FileComparison]) -> Table:
+    rows = []
+    for c in comparisons:
+        axis = SWEEP_AXES[c.sweep_variable]
+        for b in c.bounds:
+            s = b.summary()
+            if not s["rows"]:
+                continue
+            i = s["worst"]
+            rel = f"{s['model_over_bound']:.3g}" if math.isfinite(s["margin"]) else ""
+            rows.append((Path(c.path).name, b.text, b.statement, str(s["rows"]), str(s["met"]),
+                         _quantity_value(b.quantity, b.bound[i]), _quantity_value(b.quantity, b.model[i]),
+                         ("+" if s["margin"] >= 0 else "-") + _quantity_value(b.quantity, abs(s["margin"]))
+                         if math.isfinite(s["margin"]) else "no model value", rel,
+                         f"{axis.axis_label} = {c.x[i] * axis.display_scale:.4g}"))
+    return Table(("file", "bound", "stated", "rows", "met", "bound at worst row", "model there", "margin",
+                  "model / bound", "worst row"), tuple(rows))
+
+
+_BOUND_CSV_COLUMNS = ("file", "line", "sweep_value", "distance_m", "bound", "relation", "bound_value", "model_value",
+                      "met", "margin")
+
+
+def bound_rows(comparisons: list[FileComparison]) -> list[dict[str, str]]:
+    """Every bound at every row that has one, as flat records (``bounds.csv``)."""
+    out = []
+    for c in comparisons:
+        for b in c.bounds:
+            for i in np.flatnonzero(np.isfinite(b.bound)):
+                out.append({"file": Path(c.path).name, "line": str(int(c.lines[i])), "sweep_value": _cell(c.x[i]),
+                            "distance_m": _cell(c.distance_m[i]), "bound": b.quantity, "relation": b.relation,
+                            "bound_value": _cell(b.bound[i]), "model_value": _cell(b.model[i]),
+                            "met": "yes" if b.met[i] else "no", "margin": _cell(b.margin[i])})
+    return out
+
+
 _MD_COLUMNS = (("line", "line"), ("sweep_value", "x"), ("measured_depth_error_m", "depth err meas [m]"),
                ("model_depth_error_m", "depth err model [m]"), ("measured_depth_std_m", "depth std meas [m]"),
                ("model_depth_std_m", "depth std model [m]"), ("ratio_depth_std", "ratio"),
@@ -330,6 +463,14 @@ def write_comparison(comparisons: list[FileComparison], out: str | Path, *, titl
         writer.writeheader()
         writer.writerows({k: _spreadsheet_safe(v) if k in _TEXT_COLUMNS else v for k, v in r.items()} for r in records)
     written.append(csv_path)
+    checks = bound_rows(comparisons)
+    if checks:
+        bounds_path = out / "bounds.csv"
+        with atomic_path(bounds_path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
+            writer = csv.DictWriter(f, fieldnames=list(_BOUND_CSV_COLUMNS))
+            writer.writeheader()
+            writer.writerows({k: _spreadsheet_safe(v) if k == "file" else v for k, v in r.items()} for r in checks)
+        written.append(bounds_path)
     pngs = []
     for i, c in enumerate(comparisons):
         fig = figure(c)
@@ -344,6 +485,12 @@ def write_comparison(comparisons: list[FileComparison], out: str | Path, *, titl
              "metadata overrides)."]
     header = tuple(h for _, h in _MD_COLUMNS)
     report = Summary(title, [*(preamble or []), *notes], [Section("Summary", [_summary_table(comparisons)])])
+    if checks:
+        report.sections.append(Section("Published bounds", [
+            "Each bound is checked at every row that states it, against the model of the file's camera and "
+            "conditions. The margin is bound - model for an upper bound and model - bound for a lower one: "
+            "positive where the bound is met. The worst row is the one with the smallest margin.",
+            _bounds_table(comparisons)]))
     for c, rows, (png_path, png) in zip(comparisons, per_file, pngs, strict=True):
         name = Path(c.path).name
         report.sections.append(Section(name, [

@@ -31,6 +31,9 @@ Rows that do not enter the fit, and why (counted in the diagnostics, and each ro
   analytic model agrees with the Monte Carlo within ~1.5 % down to SNR 4 and degrades below
   (docs/model.md, "Analytic path");
 - an empty cell: not measured; that residual is absent, the row's other one stays.
+
+Bounds (format 4, a datasheet's promise) are not fitted: ``tofjax compare`` checks them. A file
+of bounds only is refused by the calibration in one line.
 """
 
 from __future__ import annotations
@@ -178,6 +181,9 @@ def load_rows(path: str | Path, config: tj.Config, *, relative_error: float | No
     """Read one sweep file and prepare its residual rows (see the module docstring)."""
     m = read_measurement(path, config)
     path, data, cols, file_config = m.path, m.data, m.columns, m.config
+    if data.bounds and not any(name in data.fields for name in OBSERVABLES):
+        raise CalibrationInputError(f"{path}: holds bounds only ({', '.join(data.bounds)}: a published specification, "
+                                    "not a measurement); tofjax compare checks them; calibrate fits measured values")
     frames = cols["n_frames"]
     few = ~(frames >= 2)  # an empty cell (NaN): not stated
     if relative_error is None and np.any(few):

@@ -16,7 +16,9 @@ def register(subparsers) -> None:
                     "the real distance with the model's expected depth (wiggling) and error, amplitude, depth noise "
                     "(absolute and relative) and the model/measured ratio per point; rows the model saturates or "
                     "cannot measure are flagged. Writes comparison.csv, comparison.md, comparison.html (figures "
-                    "embedded) and one PNG per file. Depth-only, amplitude-only and multi-frequency files work.")
+                    "embedded) and one PNG per file. Depth-only, amplitude-only and multi-frequency files work. A file "
+                    "that states bounds (format tofjax-sweep/4, a datasheet's promise) gets every bound checked: met "
+                    "or not, with its margin (bounds.csv, and a section of the report).")
     p.add_argument("sweeps", nargs="+", type=Path, metavar="SWEEP.csv", help="tofjax-sweep files")
     p.add_argument("--config", type=Path, help="camera configuration TOML (default: built-in defaults)")
     p.add_argument("--out", type=Path, required=True, help="output directory")
@@ -34,7 +36,7 @@ def run(args) -> int:
     enable_compilation_cache(fast_compile=True)
     import tofjax as tj
 
-    from ._compare import compare_measurements, write_comparison
+    from ._compare import bound_lines, compare_measurements, write_comparison
     from ._data import read_measurement
 
     config = tj.load_config(args.config) if args.config else tj.Config()
@@ -57,7 +59,11 @@ def run(args) -> int:
             if s["rows"]:
                 parts.append(f"{text} model/measured median {s['median_ratio']:.3f}, {s['within']}/{s['rows']} within 30 %")
         flagged = sum(bool(f) for f in c.flags)
-        print(f"{c.path}: " + ("; ".join(parts) or "no comparable rows") + (f"; {flagged} rows flagged" if flagged else ""))
+        if parts or not c.bounds:
+            print(f"{c.path}: " + ("; ".join(parts) or "no comparable rows")
+                  + (f"; {flagged} rows flagged" if flagged else ""))
+        for line in bound_lines(c):
+            print(f"{c.path}: {line}")
     print(f"wrote {len(written)} files to {args.out} in {time.perf_counter() - t0:.1f} s: "
           + ", ".join(p.name for p in written))
     return 0

@@ -281,3 +281,30 @@ def test_compare_outputs_keep_files_apart_and_show_names_as_text(files, tmp_path
     (tmp_path / "phases.csv").write_text("\n".join(lines) + "\n")
     assert main(["compare", str(tmp_path / "phases.csv"), "--out", str(tmp_path / "c2")]) == 2
     assert "n_phases = 4 in the file, but the configuration has pixel.n_phases = 3" in capsys.readouterr().err
+
+
+def test_compare_checks_a_specifications_bounds_with_their_margins(files, tmp_path, capsys):
+    """A tofjax-sweep/4 file of bounds only, stated around the model's own prediction (10 % above it on
+    the first rows, 10 % below on the rest): met exactly where the bound is above, with margin
+    bound - model; the saturated near row meets no bound on its depth (the datasheet promises one)."""
+    d = np.concatenate([[0.12], D])
+    r = tj.predict(tj.Params(), tj.Sweep("distance", d))
+    std = np.asarray(r.depth_std_m)
+    factor = np.where(np.arange(len(d)) < 7, 1.1, 0.9)
+    bound = np.where(np.isfinite(std), factor * std, 1e-3)
+    path = _file(tmp_path / "spec.csv", {**_operating(d, frames=np.nan), "depth_std_m_le": bound},
+                 source="specification", **{"bound.depth_std_m_le": "'noise <= x', a test"})
+    (c,) = compare([path])
+    (b,) = c.bounds
+    np.testing.assert_array_equal(b.met, np.isfinite(std) & (factor > 1))
+    np.testing.assert_allclose(b.margin[1:], bound[1:] - std[1:], rtol=1e-12)
+    assert not b.met[0] and np.isnan(b.model[0])
+    out = tmp_path / "out"
+    assert main(["compare", str(path), "--out", str(out)]) == 0
+    console = capsys.readouterr().out
+    assert f"depth_std_m_le (depth_std_m <= bound): NOT met, 6 of {len(d)} rows meet it; the model has no value " \
+           "(saturated) at distance [m] = 0.12" in console
+    rows = (out / "bounds.csv").read_text().splitlines()
+    assert rows[0] == "file,line,sweep_value,distance_m,bound,relation,bound_value,model_value,met,margin"
+    assert len(rows) == 1 + len(d) and sum(r.split(",")[8] == "yes" for r in rows[1:]) == 6
+    assert "## Published bounds" in (out / "comparison.md").read_text()

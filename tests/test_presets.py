@@ -73,13 +73,20 @@ def test_unknown_preset_is_one_line_naming_the_choices(capsys):
 def test_every_validation_number_names_its_source_conditions_and_uncertainty(path):
     data = sweepfile.read_sweep(path)
     meta = data.metadata
-    assert data.metadata["source"] == "measurement"
     for key in ("provenance", "conditions", "uncertainty", "camera"):
         assert meta.get(key), key
+    assert all(math.isnan(n) for n in data.columns["n_frames"])  # not stated: never invented
+    if data.bounds:  # a published specification: every bound quotes its statement, the camera is a preset
+        assert meta["source"] == "specification" and data.version == 4
+        assert not any(c in data.fields for c in sweepfile.OBSERVABLE_COLUMNS)
+        assert all(meta[f"bound.{c}"] for c in data.bounds)
+        preset = meta["camera"].rpartition("--preset ")[2].split()[0]
+        assert preset in PRESETS, meta["camera"]
+        return
+    assert meta["source"] == "measurement"
     assert "§" in meta["provenance"]
     for i in range(data.n_rows):  # each row says where its numbers were stated
         assert meta.get(f"row.{i + 1}"), f"row.{i + 1}"
-    assert all(math.isnan(n) for n in data.columns["n_frames"])  # not stated: never invented
 
 
 def test_a_file_that_does_not_state_its_frames_needs_a_relative_error():

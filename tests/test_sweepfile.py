@@ -65,7 +65,7 @@ def test_empty_cell_means_not_measured():
     "kwargs, line, column, pattern",
     [
         ({"first": "distance_m,depth"}, 1, 1, "not a tofjax sweep file"),
-        ({"first": "# format: tofjax-sweep/4"}, 1, 1, "unsupported format version .tofjax-sweep/4."),
+        ({"first": "# format: tofjax-sweep/5"}, 1, 1, "unsupported format version .tofjax-sweep/5."),
         ({"meta": {k: v for k, v in META.items() if k != "n_phases"}}, None, None, 'missing required metadata line "# n_phases'),
         ({"meta": {**META, "sweep": "depth"}}, 2, None, "sweep = 'depth' is not one of"),
         ({"meta": {**META, "modulation_frequency_hz": "-5"}}, 4, None, "is not a number > 0"),

@@ -13,7 +13,7 @@ Layout (UTF-8)::
     0.45,0.002,20.0,2000,0.4454,0.0021,...
 
 - The first line names the format and its version; a reader refuses versions it does not know.
-  This reader reads versions 1, 2 and 3; writers write the oldest version that holds the file
+  This reader reads versions 1 to 4; writers write the oldest version that holds the file
   (:func:`needed_format`).
 - Version 2 (a backward-compatible addition: every version-1 file is a valid version-2 file in
   meaning) allows what a version-1 reader would misread, so such files say ``tofjax-sweep/2``:
@@ -34,8 +34,22 @@ Layout (UTF-8)::
     version 2 would ignore it and take the configured one); absent, every row is at the model's
     ``pixel.temperature_c``;
   - ``sweep: temperature``: a sweep of the sensor's temperature, whose file must have the column.
+- Version 4 adds **bounds**: what a datasheet promises rather than what was measured ("temporal
+  noise < 1 mm up to 5.5 m at 90 % reflectivity"). A bound column is named
+  ``<quantity>_<relation>`` (:func:`bound_column`): the quantity is ``depth_std_m`` (temporal depth
+  noise), ``depth_error_m`` (the systematic error's magnitude, ``|mean depth - distance|``) or
+  ``amplitude_mean_lsb``; the relation ``le`` (<=), ``lt`` (<), ``ge`` (>=) or ``gt`` (>). Each cell
+  is the bound at that row's operating point (a bound stated relative to the distance, "<= 1 % of
+  the distance", is written out per row; an empty cell: no bound at that row), so that ranges
+  ("over 0.5-4 m") are the rows the file has. Every bound column needs a metadata line
+  ``# bound.<column>: ...`` quoting the statement and naming its document. The conditions it was
+  stated under are the file's other metadata: configuration keys (``# scene.reflectivity: 0.9``,
+  ``# illumination_waveform.modulation_frequency_hz: 100000000``) and free text (``# conditions:``).
+  A version-4 file may hold bounds and no measured values, and may say ``source: specification``
+  (what a datasheet states: neither simulated nor measured).
 - Metadata keys are lower-case identifiers; values run to the end of the line. Required:
-  ``sweep`` (distance | illuminance | integration_time | temperature), ``source`` (simulation | measurement),
+  ``sweep`` (distance | illuminance | integration_time | temperature), ``source`` (simulation | measurement;
+  specification, format 4),
   ``modulation_frequency_hz``, ``n_phases``, ``created_utc`` (ISO 8601).
 - The header names the columns (each once); the required ones are :data:`REQUIRED_COLUMNS`,
   others (e.g. the simulation's noise breakdown) may follow. Cells are plain decimal numbers
@@ -64,14 +78,16 @@ import numpy as np
 from ._schema import EXPOSURE_DEFINITIONS, FUSIONS, OPERATING_POINT_COLUMNS, SWEEP_AXES, SWEEPS
 
 FORMAT_NAME = "tofjax-sweep"
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 FORMAT = f"{FORMAT_NAME}/{FORMAT_VERSION}"
 #: The versions this reader reads, oldest first.
-FORMATS = (f"{FORMAT_NAME}/1", f"{FORMAT_NAME}/2", FORMAT)
+FORMATS = (f"{FORMAT_NAME}/1", f"{FORMAT_NAME}/2", f"{FORMAT_NAME}/3", FORMAT)
 #: Version-1 format line (what writers write when a file needs nothing of version 2).
 FORMAT_V1 = FORMATS[0]
 #: Version-2 format line (what writers write when a file needs version 2 but nothing of version 3).
 FORMAT_V2 = FORMATS[1]
+#: Version-3 format line (a temperature sweep or column, and no bound).
+FORMAT_V3 = FORMATS[2]
 REQUIRED_METADATA = ("sweep", "source", "modulation_frequency_hz", "n_phases", "created_utc")
 REQUIRED_COLUMNS = (
     "distance_m", "integration_time_s", "illuminance_lx", "n_frames", "depth_mean_m", "depth_std_m",
@@ -86,8 +102,13 @@ V2_METADATA = ("modulation_frequencies_hz", "frequency_fusion", "integration_tim
 #: The sweeps and columns a version-1 or -2 file may not have (such a reader would misread it).
 V3_SWEEPS = ("temperature",)
 V3_COLUMNS = ("temperature_c",)
+#: What a bound (version 4) may bound, and its relations (column suffix -> symbol).
+BOUND_QUANTITIES = ("depth_std_m", "depth_error_m", "amplitude_mean_lsb")
+BOUND_RELATIONS = {"le": "<=", "lt": "<", "ge": ">=", "gt": ">"}
 SWEEP_NAMES = SWEEPS
-SOURCES = ("simulation", "measurement")
+SOURCES = ("simulation", "measurement", "specification")
+#: Sources a version-1 to -3 file may not name (a published specification: bounds, format 4).
+V4_SOURCES = ("specification",)
 _KEY = re.compile(r"[a-z][a-z0-9_.]*\Z")
 _META = re.compile(r"#\s*([^:]+?)\s*:\s?(.*)\Z")
 
@@ -151,9 +172,21 @@ class SweepData:
     def version(self) -> int:
         return int(self.metadata["format"].rpartition("/")[2])
 
+    @property
+    def bounds(self) -> list[str]:
+        """The file's bound columns (format 4, :func:`bound_column`), in the header's order."""
+        return [c for c in self.fields if bound_column(c)]
+
     def measured(self, column: str) -> bool:
         """Whether the file has ``column`` with at least one value."""
         return column in self.fields and bool(np.any(~np.isnan(self.columns[column])))
+
+
+def bound_column(name: str) -> tuple[str, str] | None:
+    """``(quantity, relation)`` of a bound column's name (``depth_std_m_lt`` -> ``("depth_std_m",
+    "lt")``), or None for any other column."""
+    quantity, _, relation = name.rpartition("_")
+    return (quantity, relation) if quantity in BOUND_QUANTITIES and relation in BOUND_RELATIONS else None
 
 
 def _frequency_list(text: str) -> list[float]:
@@ -184,9 +217,12 @@ def _check_metadata(path, metadata: Mapping[str, str], lines: Mapping[str, int])
         _dt.datetime.fromisoformat(metadata["created_utc"])
     except ValueError:
         fail("created_utc", f"created_utc = {metadata['created_utc']!r} is not an ISO 8601 time")
+    if metadata.get("format") in (FORMAT_V1, FORMAT_V2, FORMAT_V3) and metadata["source"] in V4_SOURCES:
+        fail("source", f"source = {metadata['source']!r} needs format {FORMAT}: write \"# format: {FORMAT}\" on the "
+                       "first line")
     if metadata.get("format") in (FORMAT_V1, FORMAT_V2) and metadata["sweep"] in V3_SWEEPS:
-        fail("sweep", f"sweep = {metadata['sweep']!r} needs format {FORMAT}: write \"# format: {FORMAT}\" on the "
-                      "first line")
+        fail("sweep", f"sweep = {metadata['sweep']!r} needs format {FORMAT_V3}: write \"# format: {FORMAT_V3}\" on "
+                      "the first line")
     if metadata.get("format") == FORMAT_V1:
         for key in V2_METADATA:
             if key in metadata:
@@ -231,6 +267,8 @@ def _check_value(path, line: int, column: int, name: str, x: float) -> None:
             fail(f"{key.range_text()} [{key.unit}], as {key.dotted}")
     if name == "amplitude_mean_lsb" and x < 0:
         fail("value >= 0 (an amplitude)")
+    if bound_column(name) and x < 0:
+        fail("value >= 0 (a bound on a noise, an error's magnitude or an amplitude)")
 
 
 def parse_sweep(text: str, path: str | os.PathLike = "<string>", *, allow_empty: bool = False) -> SweepData:
@@ -279,17 +317,22 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>", *, allow_empty:
                 if version == FORMAT_V1 and any(c not in REQUIRED_COLUMNS_V2 for c in missing) else "")
         raise SweepFileError(path, header_line, None, "missing required column(s): " + ", ".join(missing) + more)
     for j, name in enumerate(header):
-        if name in V3_COLUMNS and version != FORMAT:
+        needs = FORMAT if bound_column(name) else FORMAT_V3 if name in V3_COLUMNS else None
+        if needs and FORMATS.index(version) < FORMATS.index(needs):
             raise SweepFileError(path, header_line, _column(lines[i], j),
-                                 f"column {name} needs format {FORMAT} (a {version} reader would ignore it): write "
-                                 f'"# format: {FORMAT}" on the first line')
+                                 f"column {name} needs format {needs} (a {version} reader would ignore it): write "
+                                 f'"# format: {needs}" on the first line')
+        if bound_column(name) and not metadata.get(f"bound.{name}"):
+            raise SweepFileError(path, header_line, _column(lines[i], j),
+                                 f'bound column {name} needs its source: a metadata line "# bound.{name}: ..." quoting '
+                                 "the statement and naming its document")
     axis_column = SWEEP_AXES[metadata["sweep"]].column
     if axis_column not in header:
         raise SweepFileError(path, header_line, None, f"missing required column {axis_column}: the file's sweep is "
                                                       f"{metadata['sweep']}")
-    if not any(c in header for c in OBSERVABLE_COLUMNS):
+    if not any(c in header for c in OBSERVABLE_COLUMNS) and not any(bound_column(c) for c in header):
         raise SweepFileError(path, header_line, None, "no measured quantity: the file needs at least one of the columns "
-                                                      + ", ".join(OBSERVABLE_COLUMNS))
+                                                      + ", ".join(OBSERVABLE_COLUMNS) + f" (or, format {FORMAT}, a bound)")
     rows: list[list[float]] = []
     row_lines: list[int] = []
     for k in range(i + 1, len(lines)):
@@ -409,8 +452,8 @@ class SweepWriter:
                 raise ValueError(f"metadata {key!r}: {value!r}: keys must be lower-case identifiers, values one line")
         missing_meta = [k for k in REQUIRED_METADATA if k not in meta]
         missing = [c for c in REQUIRED_COLUMNS_V2 if c not in self.columns]
-        if not any(c in self.columns for c in OBSERVABLE_COLUMNS):
-            missing.append(" or ".join(OBSERVABLE_COLUMNS))
+        if not any(c in self.columns for c in OBSERVABLE_COLUMNS) and not any(bound_column(c) for c in self.columns):
+            missing.append(" or ".join(OBSERVABLE_COLUMNS) + " (or a bound)")
         if missing_meta or missing:
             raise ValueError(f"sweep file {self.path}: missing metadata {missing_meta} / columns {missing}")
         _check_metadata(self.path, meta, {})
@@ -467,12 +510,14 @@ class SweepWriter:
 
 
 def needed_format(metadata: Mapping[str, str], columns: Iterable[str]) -> str:
-    """The oldest format that holds a file: version 3 for a temperature sweep or column, else version 1
-    unless it lacks a version-1 column or names version-2 metadata (an older reader must refuse such
-    a file, not misread it)."""
+    """The oldest format that holds a file: version 4 for a bound, version 3 for a temperature sweep
+    or column, else version 1 unless it lacks a version-1 column or names version-2 metadata (an older
+    reader must refuse such a file, not misread it)."""
     columns = list(columns)
-    if metadata.get("sweep") in V3_SWEEPS or any(c in columns for c in V3_COLUMNS):
+    if any(bound_column(c) for c in columns) or metadata.get("source") in V4_SOURCES:
         return FORMAT
+    if metadata.get("sweep") in V3_SWEEPS or any(c in columns for c in V3_COLUMNS):
+        return FORMAT_V3 if metadata.get("source") not in V4_SOURCES else FORMAT
     if any(c not in columns for c in REQUIRED_COLUMNS) or any(k in metadata for k in V2_METADATA):
         return FORMAT_V2
     return FORMAT_V1
