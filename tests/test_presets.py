@@ -59,6 +59,14 @@ def test_preset_values_are_the_datasheets_numbers():
                    / (1.602176634e-19 * p.illumination.wavelength_m)) for n, p in (("k2", k2), ("ti", ti))}
     assert math.isclose(qe["k2"], 0.2019, rel_tol=1e-3) and math.isclose(qe["ti"], 0.5106, rel_tol=1e-3)
     assert preset_config("thesis").values == tj.Config().values
+    # the CDK camera's lens: TI's calibrated focal length (fx = 229.0 px of 15 um) from the field of view written
+    # in the preset; the lens passes the one-to-one check of its distortion over the array
+    from tofjax._framegeometry import check_lens, frame_settings, lens
+
+    cdk = preset_config("ti-opt8241-cdk")
+    assert float(lens(cdk.params.camera).focal_length_m) == pytest.approx(228.973245816 * 15e-6, rel=2e-3)
+    check_lens(cdk.params, frame_settings(cdk.values["frame"]))
+    assert cdk.params.illumination_waveform.modulation_frequency_hz * 2 * 4.0 == pytest.approx(299792458.0)
 
 
 def test_unknown_preset_is_one_line_naming_the_choices(capsys):
