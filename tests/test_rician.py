@@ -1,5 +1,6 @@
-"""A phasor in circular Gaussian noise beyond the delta method (tofjax/_rician.py): the shipped table
-against the quadrature, the phase variance and mean amplitude against sampling, the asymptotes."""
+"""A phasor in circular Gaussian noise beyond the delta method (tofjax/_rician.py): the shipped series
+against the quadrature and the Bessel form, the phase variance and mean amplitude against sampling,
+the asymptotes."""
 
 import math
 
@@ -16,16 +17,17 @@ phase_variance = jax.jit(_rician.phase_variance)
 mean_abs = jax.jit(_rician.mean_abs)
 
 
-def test_shipped_table_is_the_quadrature():
-    table = _rician._table()
-    x = table[:, 0]
-    np.testing.assert_allclose(_rician.compute_table(x[::37]), table[::37], rtol=1e-9, atol=1e-12)
-    # Between the grid points the interpolant stays within 1e-7 of the quadrature.
-    mid = 0.5 * (x[1:] + x[:-1])[::11]
-    direct = np.exp(_rician.compute_table(mid)[:, 1])
-    np.testing.assert_allclose(np.asarray(phase_variance(jnp.asarray(np.exp(mid)))), direct, rtol=1e-7)
-    ratio = _rician._mean_ratio(np.exp(mid))
-    np.testing.assert_allclose(np.asarray(_rician.moments(jnp.asarray(np.exp(mid)))[1]), ratio, rtol=1e-8)
+def test_shipped_series_are_the_fit_within_the_stated_bounds():
+    """The shipped coefficients are compute_coefficients' (the fit is reproducible), and the series
+    stay within the module's bounds: G within 5e-8 of the quadrature, M within 1e-10 of the Bessel
+    form, over v from 1e-6 to 1e10 (both intervals and their meeting point)."""
+    fitted = _rician.compute_coefficients()
+    for name, coefficients in _rician._coefficients().items():
+        np.testing.assert_allclose(coefficients, fitted[name], rtol=1e-12, atol=1e-15)
+    v = np.geomspace(1e-6, 1e10, 397)
+    g, m = (np.asarray(x) for x in jax.jit(_rician.moments)(jnp.asarray(v)))
+    np.testing.assert_allclose(g, _rician.quadrature_g(v), rtol=5e-8)
+    np.testing.assert_allclose(m, _rician._mean_ratio(v), rtol=1e-10)
 
 
 @pytest.mark.parametrize("v", [0.02, 0.3, 1.0, 6.0])
@@ -45,10 +47,10 @@ def test_limits_and_derivatives():
     g = np.asarray(phase_variance(v))
     np.testing.assert_allclose(g[:2], np.asarray(v[:2]) * (1 + np.asarray(v[:2])), rtol=1e-9)
     np.testing.assert_allclose(g[2:], math.pi**2 / 3, rtol=1e-4)  # a uniform phase
-    # Continuous across the table's ends, increasing, with finite derivatives everywhere.
-    for edge in (1e-4, 1e8):
-        lo, hi = phase_variance(jnp.asarray(edge * (1 - 1e-9))), phase_variance(jnp.asarray(edge * (1 + 1e-9)))
-        assert float(hi) == pytest.approx(float(lo), rel=3e-8)
+    # Continuous where the two series meet, increasing, with finite derivatives everywhere.
+    edge = _rician.V_SPLIT
+    lo, hi = phase_variance(jnp.asarray(edge * (1 - 1e-9))), phase_variance(jnp.asarray(edge * (1 + 1e-9)))
+    assert float(hi) == pytest.approx(float(lo), rel=5e-8)
     grid = jnp.asarray(np.geomspace(1e-6, 1e10, 2001))
     assert np.all(np.diff(np.asarray(phase_variance(grid))) > 0)
     slopes = jax.vmap(jax.grad(phase_variance))(grid)

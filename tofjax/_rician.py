@@ -16,11 +16,25 @@ Both, relative to the delta method, are functions of v alone:
   delta method's second order), pi^2 / 3 (a uniform phase) as rho -> 0;
 - M(v) = E|Z| / A: 1 + v / 2 (the noise bias of the amplitude) at high SNR, sqrt(pi v / 2) as A -> 0.
 
-They are tabulated once (:func:`compute_table`, by quadrature for G and the Bessel form for M; shipped
-as ``tofjax/data/rician_phase_variance.csv``) and interpolated by cubic Hermite in log-log space
-(G within 7e-8 of the quadrature, M within 1e-8 of the Bessel form); beyond the table, v (1 + v + 2.67 v^2) and 1 + v/2 + v^2/8 below
-v = 1e-4, pi^2/3 - sqrt(2 pi / v) + 1 / (4 v) and sqrt(pi v / 2) (1 + 1 / (4 v)) above v = 1e8 (all
-within 3e-8). A table lookup keeps the per-point cost and the compiled program small.
+They are evaluated without a table lookup, as two Chebyshev series on two intervals of v, both
+summed for every point and one selected: a gather per point is what a CPU does worst (the table's
+lookups were 40 % of a 224 x 172 noise image; docs/model.md, "Performance"). The variables follow each
+function's structure:
+
+- v <= 0.05: G = v (1 + v + v R(v)) and M = 1 + v S(v) with R and S series in v: the high-SNR
+  expansions v (1 + v + 8/3 v^2 + ...) and 1 + v/2 + ..., their leading terms exact (a noiseless
+  phasor has G = 0 and M = 1 to the last bit). Their corrections, exp(-1/(2v)) and smaller, are
+  below the quadrature's accuracy there; beyond, no power series in v can follow them;
+- v > 0.05: G = pi^2/3 + w T(w) and M = sqrt(pi v / 2) (1 + w U(w)) with T and U series in
+  w = 1 / sqrt(v) on [0, 1 / sqrt(0.05)]. Both are analytic in w, at w = 0 too (a uniform phase,
+  G = pi^2/3 - sqrt(2 pi) w + w^2/4 + ...; the Rayleigh mean), so one series reaches v = infinity, and
+  no signal gives the uniform phase and the Rayleigh mean to the last bit.
+
+The coefficients are fitted once at Chebyshev nodes (:func:`compute_coefficients`: G by quadrature of
+Rice's density, M from the Bessel form) and shipped as ``tofjax/data/rician_chebyshev.csv``. Error
+bounds (tests/test_rician.py, log-spaced v over 1e-6..1e10): G within 1e-7 of the quadrature (the
+quadrature's own accuracy), M within 1e-10 of the Bessel form. Every series is a polynomial with
+Python-number coefficients: its derivatives are exact, its arithmetic stays in the input's precision.
 """
 
 from __future__ import annotations
@@ -32,13 +46,18 @@ from pathlib import Path
 
 import equinox as eqx
 import jax.numpy as jnp
+from jax import lax
 import numpy as np
 from jaxtyping import Array, Float
 
-_LOG_V_MIN, _LOG_V_MAX = math.log(1e-4), math.log(1e8)
-_TABLE_POINTS = 481
+#: Where the two intervals meet, in v (module docstring), and the second's end in w = 1 / sqrt(v).
+V_SPLIT = 0.05
+W_END = 1.0 / math.sqrt(V_SPLIT)
+_FILE = "rician_chebyshev.csv"
 _UNIFORM = math.pi**2 / 3.0
-_TABLE_FILE = "rician_phase_variance.csv"
+#: Series degree per function and interval (G's first interval is at the quadrature's accuracy with 8).
+DEGREES = {"g_low": 8, "g_high": 20, "m_low": 8, "m_high": 20}
+_NODES = 300
 
 
 def _wrapped_variance(rho: np.ndarray) -> np.ndarray:
@@ -55,6 +74,12 @@ def _wrapped_variance(rho: np.ndarray) -> np.ndarray:
     return 2.0 * (density * theta**2) @ weights * (theta[1] - theta[0]) / 3.0
 
 
+def quadrature_g(v: np.ndarray) -> np.ndarray:
+    """G(v) by quadrature of Rice's phase density (the reference; 50 points per batch)."""
+    v = np.asarray(v, dtype=float)
+    return np.concatenate([_wrapped_variance(0.5 / v[i:i + 50]) for i in range(0, len(v), 50)])
+
+
 def _mean_ratio(v: np.ndarray) -> np.ndarray:
     """M(v) = E|Z| / A from the Bessel form of the Rician mean."""
     from scipy.special import i0e, i1e
@@ -63,64 +88,71 @@ def _mean_ratio(v: np.ndarray) -> np.ndarray:
     return np.sqrt(v) * np.sqrt(np.pi / 2) * ((1 + rho) * i0e(rho / 2) + rho * i1e(rho / 2))
 
 
-def compute_table(log_v: np.ndarray | None = None) -> np.ndarray:
-    """Rows (log v, log G, d log G / d log v, log M, d log M / d log v), on the table's grid by
-    default (a few seconds; the shipped CSV holds the result). Slopes by central differences."""
-    x = np.linspace(_LOG_V_MIN, _LOG_V_MAX, _TABLE_POINTS) if log_v is None else np.asarray(log_v, dtype=float)
-    h = 1e-4
-    points = np.concatenate([x, x + h, x - h])
-    g = np.log(_wrapped_variance(0.5 * np.exp(-points))).reshape(3, -1)
-    m = np.log(_mean_ratio(np.exp(points))).reshape(3, -1)
-    return np.stack([x, g[0], (g[1] - g[2]) / (2 * h), m[0], (m[1] - m[2]) / (2 * h)], axis=1)
+def compute_coefficients() -> dict[str, np.ndarray]:
+    """The series' Chebyshev coefficients (module docstring), least squares at 300 Chebyshev nodes per
+    interval (about a second; the shipped CSV holds the result)."""
+    x = np.cos(np.pi * (np.arange(_NODES) + 0.5) / _NODES)
+    v_low = np.maximum(0.5 * (x + 1.0) * V_SPLIT, 1e-7)  # G / v -> 1 at v -> 0; the quadrature needs v > 0
+    w = np.maximum(0.5 * (x + 1.0) * W_END, 1e-9)
+    v_high = 1.0 / w**2
+    # The first interval's series hold the expansions' leading terms exactly (G = v (1 + v + v R),
+    # M = 1 + v S): a noiseless phasor's G = 0 and M = 1 to the last bit, v (1 + v) at small v.
+    # The second's hold their limits at w = 0 exactly too (G = pi^2/3 + w T, M = sqrt(pi v / 2) (1 + w U)):
+    # no signal is a uniform phase and the Rayleigh mean to the last bit.
+    targets = {"g_low": (quadrature_g(v_low) / v_low - 1.0 - v_low) / v_low,
+               "g_high": (quadrature_g(v_high) - _UNIFORM) / w,
+               "m_low": (_mean_ratio(v_low) - 1.0) / v_low,
+               "m_high": (_mean_ratio(v_high) / np.sqrt(0.5 * np.pi * v_high) - 1.0) / w}
+    nodes = {"low": 2.0 * v_low / V_SPLIT - 1.0, "high": 2.0 * w / W_END - 1.0}
+    return {name: np.polynomial.chebyshev.chebfit(nodes[name[2:]], y, DEGREES[name]) for name, y in targets.items()}
 
 
-def write_table(path) -> None:
-    """Regenerate the shipped table (``python -c "from tofjax._rician import write_table; ..."``)."""
-    rows = compute_table()
-    header = ("# A phasor in circular complex Gaussian noise against its first-order phase variance v = s^2 / A^2:\n"
-              "# G = E[theta^2] of the wrapped phase (Rice's phase density, composite Simpson over [0, pi], 40001 points)\n"
-              "# and M = E|Z| / A (Rician mean, Bessel form). Computed by tofjax._rician.compute_table; slopes by\n"
-              "# central differences (h = 1e-4 in log v).\n"
-              "log_v,log_g,slope_g,log_m,slope_m\n")
-    Path(path).write_text(header + "".join(",".join(repr(float(x)) for x in row) + "\n" for row in rows),
-                          encoding="utf-8")
+def write_coefficients(path) -> None:
+    """Regenerate the shipped coefficients (``python -c "from tofjax._rician import write_coefficients;
+    write_coefficients('tofjax/data/rician_chebyshev.csv')"``)."""
+    rows = compute_coefficients()
+    header = ("# Chebyshev coefficients (c0, c1, ...) of G = E[theta^2] (Rice's phase density, composite Simpson, 40001\n"
+              "# points) and M = E|Z| / A (Bessel form) of a phasor in circular complex Gaussian noise, per interval of the\n"
+              "# first-order phase variance v: low (R and S of G = v (1 + v + v R), M = 1 + v S, series in v on [0, 0.05]); high (the\n"
+              "# T and U of G = pi^2/3 + w T, M = sqrt(pi v / 2) (1 + w U), series in w = 1 / sqrt(v) on [0, 1 / sqrt(0.05)]).\n"
+              "# tofjax._rician.compute_coefficients.\n"
+              "name,coefficients\n")
+    Path(path).write_text(header + "".join(name + "," + ",".join(repr(float(c)) for c in coeffs) + "\n"
+                                           for name, coeffs in rows.items()), encoding="utf-8")
 
 
 @functools.cache
-def _table() -> np.ndarray:
-    """The shipped table, rows (log v, log G, slope, log M, slope)."""
-    text = resources.files("tofjax").joinpath("data", _TABLE_FILE).read_text(encoding="utf-8")
+def _coefficients() -> dict[str, tuple[float, ...]]:
+    """The shipped coefficients, as Python numbers (constants of the compiled programs)."""
+    text = resources.files("tofjax").joinpath("data", _FILE).read_text(encoding="utf-8")
     lines = [line for line in text.splitlines() if line and not line.startswith("#")][1:]
-    return np.array([[float(x) for x in line.split(",")] for line in lines])
+    return {line.split(",")[0]: tuple(float(c) for c in line.split(",")[1:]) for line in lines}
+
+
+def _chebyshev(x, coefficients: tuple[float, ...]):
+    """sum_k c_k T_k(x) by Clenshaw's recurrence (elementwise; no arrays of coefficients)."""
+    b1, b2 = 0.0, 0.0
+    for c in coefficients[:0:-1]:
+        b1, b2 = 2.0 * x * b1 - b2 + c, b1
+    return x * b1 - b2 + coefficients[0]
 
 
 @eqx.filter_jit
 def moments(v: Float[Array, "*b"]) -> tuple[Float[Array, "*b"], Float[Array, "*b"]]:
     """(G(v), M(v)) for first-order phase variances ``v`` (module docstring); ``v = inf`` (no
     signal) gives G = pi^2 / 3."""
-    table = jnp.asarray(_table())
-    step = (_LOG_V_MAX - _LOG_V_MIN) / (_TABLE_POINTS - 1)
+    c = _coefficients()
     v = jnp.minimum(v, 1e200)  # no signal: finite values and zero (not NaN) derivatives
-    small = v < math.exp(_LOG_V_MIN)
-    large = v > math.exp(_LOG_V_MAX)
-    t = (jnp.log(jnp.where(small | large, 1.0, v)) - _LOG_V_MIN) / step
-    cell = jnp.clip(jnp.floor(t), 0, _TABLE_POINTS - 2)
-    u = t - cell
-    i = cell.astype(jnp.int32)
-    u2, u3 = u * u, u * u * u
-    h00, h10, h01, h11 = 2 * u3 - 3 * u2 + 1, (u3 - 2 * u2 + u) * step, 3 * u2 - 2 * u3, (u3 - u2) * step
-
-    def hermite(value: int, slope: int) -> Array:  # one gather per table column: no (..., 5) rows
-        y, dy = table[:, value], table[:, slope]
-        return jnp.exp(h00 * y[i] + h10 * dy[i] + h01 * y[i + 1] + h11 * dy[i + 1])
-
-    inside = (hermite(1, 2), hermite(3, 4))
-    vs = jnp.where(small, v, 0.0)
-    vl = jnp.where(large, v, 1.0)
-    g = jnp.where(small, vs * (1.0 + vs + 2.668 * vs**2),
-                  jnp.where(large, _UNIFORM - jnp.sqrt(2.0 * math.pi / vl) + 0.25 / vl, inside[0]))
-    m = jnp.where(small, 1.0 + 0.5 * vs + 0.125 * vs**2,
-                  jnp.where(large, jnp.sqrt(0.5 * math.pi * vl) * (1.0 + 0.25 / vl), inside[1]))
+    low = v <= V_SPLIT
+    v_low = jnp.minimum(v, V_SPLIT)  # each series at a point of its own interval: finite, no stray gradient
+    v_high = jnp.maximum(v, V_SPLIT)
+    x_low = 2.0 * v_low / V_SPLIT - 1.0
+    x_high = (2.0 / W_END) * lax.rsqrt(v_high) - 1.0
+    w = 0.5 * W_END * (x_high + 1.0)
+    g = jnp.where(low, v_low * (1.0 + v_low * (1.0 + _chebyshev(x_low, c["g_low"]))),
+                  _UNIFORM + w * _chebyshev(x_high, c["g_high"]))
+    m = jnp.where(low, 1.0 + v_low * _chebyshev(x_low, c["m_low"]),
+                  jnp.sqrt(0.5 * math.pi * v_high) * (1.0 + w * _chebyshev(x_high, c["m_high"])))
     return g, m
 
 
