@@ -9,7 +9,9 @@ returns computed once. Cases (per call; "per frame" divides by the frames of the
 - ``one``: one noisy frame of the exposed scene per call (``camera.expose(returns).sample(key, 1)``);
 - ``one_in_jit``: the same work inside one outer ``jax.jit`` (what one call could cost);
 - ``dispatch_floor``: one trivial jitted kernel (``x + 1`` on a scalar): the cost of any call;
-- ``batch``: 32 frames per call (``sample(key, 32)``), per frame;
+- ``batch``: 32 frames per call (``sample(key, 32)``), per frame; ``batch32_float32`` the same of a
+  float32 camera (``camera.astype("float32")``, issue 35 item 4: float64 / float32 printed);
+- ``noise_image`` and ``noise_image_float32``: the exposed scene's noise image in both precisions;
 - ``vmap_keys``: ``jax.vmap`` of ``sample(k, 1)`` over 64 keys in one ``jit``, per frame;
 - at 224 x 172 also ``batch64`` and ``vmap64`` (64 frames each way);
 - ``noise_images_vmap`` / ``noise_images_map`` / ``noise_images_sharded``: the noise images of 64 walls
@@ -61,13 +63,18 @@ def frame_cases(rows: int, cols: int, big_batches: bool) -> tuple[dict, dict]:
     exposed = ready(cam.expose(returns))
     one_in_jit = jax.jit(lambda k: exposed.sample(k, 1).radial_m)
     vmap64 = jax.jit(jax.vmap(lambda k: exposed.sample(k, 1).radial_m))
+    exposed32 = ready(cam.astype("float32").expose(returns))  # the same scene, frames in float32
     cases = {
         "one": lambda i: ready(exposed.sample(jax.random.key(i + 3), 1).radial_m),
         "one_in_jit": lambda i: ready(one_in_jit(jax.random.key(i + 3))),
         "batch32": lambda i: ready(exposed.sample(jax.random.key(i + 3), 32).radial_m),
         "vmap_keys64": lambda i: ready(vmap64(jax.random.split(jax.random.key(i + 3), 64))),
+        "batch32_float32": lambda i: ready(exposed32.sample(jax.random.key(i + 3), 32).radial_m),
+        "noise_image": lambda i: ready(exposed.noise_image()),
+        "noise_image_float32": lambda i: ready(exposed32.noise_image()),
     }
-    per_call = {"one": 1, "one_in_jit": 1, "batch32": 32, "vmap_keys64": 64}
+    per_call = {"one": 1, "one_in_jit": 1, "batch32": 32, "vmap_keys64": 64, "batch32_float32": 32,
+                "noise_image": 1, "noise_image_float32": 1}
     if big_batches:
         cases["batch64"] = lambda i: ready(exposed.sample(jax.random.key(i + 3), 64).radial_m)
         per_call["batch64"] = 64
@@ -135,6 +142,11 @@ def main(argv=None) -> int:
         for name, r in rows.items():
             if group in ("224x172", "640x480") and name == "one":
                 ratio = f"{r['us_per_item'] / rows['one_in_jit']['us_per_item']:.2f}x the outer jit"
+            elif name.endswith("_float32"):  # float32 against the same work in float64
+                twin = name.removesuffix("_float32")
+                ratio = f"float64 / float32 = {rows[twin]['us_per_item'] / r['us_per_item']:.2f}x"
+            elif name == "noise_image":
+                ratio = ""
             elif base and name != base:
                 ratio = f"{r['us_per_item'] / rows[base]['us_per_item']:.2f}x {base}"
             elif name == "dispatch_floor":

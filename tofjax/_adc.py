@@ -132,7 +132,7 @@ def quantization_variance_lsb2(adc: ADC) -> Float[Array, ""]:
     """
     if not adc.enabled:
         return jnp.asarray(0.0)
-    c = jnp.arange(1.0, 2.0**adc.resolution_bits - 1.0)
+    c = jnp.arange(1.0, 2.0**adc.resolution_bits - 1.0, dtype=jnp.result_type(adc.v_ref_pos_v))
     lo, hi = _edge(adc, c), _edge(adc, c + 1.0)
     width, offset = hi - lo, 0.5 * (lo + hi) - c
     return jnp.sum(width * (width**2 / 12.0 + offset**2)) / jnp.sum(width)
@@ -157,7 +157,7 @@ def expected_code_slope(adc: ADC, u: Float[Array, "*b"], temperature_lsb: Float[
     """d(expected code)/du: 1 inside the range, 0 beyond the rails (soft rails: a difference of
     logistic functions)."""
     if not adc.enabled:
-        return jnp.ones(jnp.shape(u))
+        return jnp.ones(jnp.shape(u), jnp.result_type(u))
     top = max_code(adc)
     if temperature_lsb is None:
         return jnp.where((u > 0.0) & (u < top), 1.0, 0.0)

@@ -34,6 +34,7 @@ from ._framegeometry import FrameSettings, check_lens, depth_returns, scene_retu
 from ._motion import MovingScene, moving_depth_returns, moving_returns, per_phase_returns
 from ._params import Params
 from ._pattern import PixelPattern
+from ._precision import PRECISIONS, in_precision
 from ._returns import Returns
 from ._scene import SceneGeometry
 from ._schema import FUSIONS
@@ -55,7 +56,8 @@ class Camera(eqx.Module):
     frequencies combine, ``illumination_waveform.frequency_fusion``); ``pattern`` (a camera sample
     for frames, or of one pixel, ``(1, 1)``, the swept pixel's own sample for sweeps; ``None``:
     every pixel the mean pixel); ``smooth`` (``None``: the hard limits and ADC; a
-    :class:`tofjax.Smooth`: their differentiable relaxation, analytic path).
+    :class:`tofjax.Smooth`: their differentiable relaxation, analytic path); ``precision`` (static:
+    ``"float64"``, or ``"float32"`` for frames computed in float32, :meth:`astype`).
 
     Build it from a configuration with :meth:`from_config`, or directly: ``tj.Camera(tj.Params())``.
     It is a pytree: ``jax.jit``, ``jax.vmap`` and ``jax.grad`` see its parameters as leaves.
@@ -67,8 +69,12 @@ class Camera(eqx.Module):
     fusion: str = eqx.field(static=True, default="inverse_variance")
     pattern: PixelPattern | None = None
     smooth: Smooth | None = None
+    precision: str = eqx.field(static=True, default="float64")
 
     def __check_init__(self):
+        if self.precision not in PRECISIONS:
+            raise ValueError(f"Camera: precision = {self.precision!r} is not allowed: expected one of "
+                             + ", ".join(map(repr, PRECISIONS)))
         if not isinstance(self.params, Params):
             raise TypeError(f"Camera: params must be a tofjax.Params, got {type(self.params).__name__}")
         if not isinstance(self.settings, FrameSettings):
@@ -91,6 +97,15 @@ class Camera(eqx.Module):
         freqs = tuple(float(f) for f in config.modulation_frequencies_hz)
         fusion = config.values["illumination_waveform"]["frequency_fusion"]
         return cls(config.params, config.frame, freqs if len(freqs) > 1 else (), fusion, pattern, smooth)
+
+    def astype(self, precision: str) -> Camera:
+        """This camera with its frames computed in ``precision``: ``"float64"`` (the default) or
+        ``"float32"`` (consumer GPUs run float64 at 1/32-1/64 of float32's speed). The parameters stay
+        as they are; :meth:`prepare` and :meth:`expose` cast the prepared chain, the pixels' constants
+        and every scene's returns, and the Monte Carlo draws in that precision. Frames only: a sweep
+        runs in float64. The error against float64 is stated and tested in docs/model.md, "float32
+        frames"."""
+        return Camera(self.params, self.settings, self.frequencies_hz, self.fusion, self.pattern, self.smooth, precision)
 
     @property
     def multifrequency(self) -> bool:
@@ -141,7 +156,8 @@ class Camera(eqx.Module):
         from ._frame import prepare_camera
 
         self._one_frequency("a frame")
-        return prepare_camera(self.params, self.settings, self.pattern, smooth=self.smooth)
+        prepared = prepare_camera(self.params, self.settings, self.pattern, smooth=self.smooth)
+        return prepared if self.precision == "float64" else in_precision(prepared, self.precision)
 
     def expose(self, scene):
         """A frame scene exposed once on this camera (``tofjax._frame.PreparedFrame``): its
@@ -173,6 +189,12 @@ class Camera(eqx.Module):
             raise ValueError(f"{what} runs the mean pixel: this camera has a pattern (Camera.pattern), which it would "
                              "not honour; drop it, or sweep one frequency")
 
+    def _double(self, what: str) -> None:
+        if self.precision != "float64":
+            raise ValueError(f"{what} runs in float64: this camera computes its frames in precision = "
+                             f"{self.precision!r} (Camera.astype), which a sweep does not honour; use "
+                             "camera.astype('float64')")
+
     def _one_frequency(self, what: str) -> None:
         if self.multifrequency:
             raise ValueError(f"{what} simulates one modulation frequency: this camera has {len(self.frequencies_hz)} "
@@ -203,6 +225,7 @@ def predict(camera, scene, *, smooth: Smooth | None = None, pattern: PixelPatter
         return predict_sweep(camera, scene, smooth=smooth, pattern=pattern)
     camera = _camera(camera, smooth, pattern)
     if isinstance(scene, Sweep):
+        camera._double("a sweep")
         if camera.multifrequency:
             camera._no_pattern("a multi-frequency sweep")
             from ._multifrequency import predict_multifrequency
@@ -244,6 +267,7 @@ def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frame
         raise ValueError("simulate(camera, ...): fixed_pattern belongs to the earlier simulate(params, ...); a camera "
                          "carries its sample as Camera.pattern (frames)")
     if isinstance(scene, Sweep):
+        camera._double("a sweep")
         from ._montecarlo import check_counts
 
         check_counts(frames, keep_frames, scene.samples, camera.params.pixel.n_phases, names=("frames", "keep_frames"),

@@ -123,6 +123,12 @@ class Chain(eqx.Module):
         return self.params.pixel.n_phases
 
     @property
+    def dtype(self):
+        """The chain's floating-point type: its parameters' (float64 by default; float32 for a camera
+        cast with :meth:`tofjax.Camera.astype`)."""
+        return jnp.result_type(self.params.pixel.v_reset_v)
+
+    @property
     def unambiguity_range_m(self) -> Array:
         return self.params.unambiguity_range_m
 

@@ -38,7 +38,6 @@ _ATAN_P = (-8.750608600031904122785e-1, -1.615753718733365076637e1, -7.500855792
 _ATAN_Q = (2.485846490142306297962e1, 1.650270098316988542046e2, 4.328810604912902668951e2,
            4.853903996359136964868e2, 1.945506571482613964425e2)
 _TAN_PI_8 = math.sqrt(2.0) - 1.0
-_HALVE_ABOVE = 2.0**1000
 
 
 def amplitude_scale(n_phases: int) -> float:
@@ -79,7 +78,7 @@ def atan2(y: Array, x: Array) -> Array:
     # materialised, and its inputs recomputed in every fusion that reads it (docs/model.md,
     # "Performance", measurement 5).
     big = num > _TAN_PI_8 * den
-    s = jnp.where(den > _HALVE_ABOVE, 0.5, 1.0)
+    s = jnp.where(den > 2.0 ** (jnp.finfo(jnp.result_type(den)).maxexp - 24), 0.5, 1.0)  # 2^1000 in float64
     r = jnp.where(big, (s * num - s * den) / jnp.where(big, s * num + s * den, 1.0),
                   num / jnp.where(den == 0.0, 1.0, den))
     z = r * r

@@ -44,6 +44,7 @@ from ._noise import dark_electrons
 from ._photometry import active_e_per_radiance, background_e_per_reflectivity
 from ._params import Params
 from ._pattern import PixelPattern, mean_pattern
+from ._precision import in_precision
 from ._random import key_words
 from ._reduce import sum_by_slices
 from ._result import Result
@@ -73,7 +74,8 @@ def scene_flags(params: Params, settings: FrameSettings, returns: Returns, direc
         return sum_by_slices(x, -1, UNROLLED_RETURNS)
 
     own = returns.own_light()  # the scene's flags are this camera's light's (another camera's is not a return)
-    radiance = returns.radiance_per_w if own is None else returns.radiance_per_w * jnp.asarray(own).reshape(1, 1, -1)
+    radiance = returns.radiance_per_w if own is None else returns.radiance_per_w * jnp.asarray(
+        own, returns.radiance_per_w.dtype).reshape(1, 1, -1)
     total = over_returns(radiance)
     radial = returns.radial_m
     surface = jnp.isfinite(radial)
@@ -245,6 +247,11 @@ class PreparedCamera(eqx.Module):
         if tuple(returns.shape) != self.shape:
             raise ValueError(f"the returns have {returns.shape[0]} x {returns.shape[1]} pixels, the camera "
                              f"{self.shape[0]} x {self.shape[1]} (rows x cols)")
+        if self.chain.dtype != jnp.float64:  # a float32 camera (Camera.astype): the scene in its precision
+            if returns.phase_image is not None or returns.source is not None:
+                raise ValueError("a float32 camera (Camera.astype) runs a static scene of its own light; these returns "
+                                 "are a moving scene's or carry another camera's light: use camera.astype('float64')")
+            returns = in_precision(returns, self.chain.dtype.name)
         return returns.checked()
 
 

@@ -151,7 +151,7 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
     to A = (sum + d0) / 2 and B = (sum - d0) / 2 (SBI removes their common mode), and e = D - d0
     split as on the other path (w3). Exact in distribution on both paths."""
     limited = _limit(chain, source.full_well_e, frames=True, frames_first=frames_first)
-    limit, n_phases = limited.limit, chain.n_phases
+    limit, n_phases, real = limited.limit, chain.n_phases, chain.dtype  # real: the draws' precision
     frame = first_frame + jnp.arange(n_frames, dtype=jnp.uint32)
     if frames_first:
         frame, point = frame[:, None], source.index[None, :]
@@ -163,7 +163,7 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
         per_point = lambda x: x[:, None]  # noqa: E731 - (points,) -> (points, 1)
 
     def tap_normals():  # the raw taps' own stream (4 stream + 2): w1, w2, w3 per phase image
-        w = normals(key, frame, point, 4 * stream + 2, 3 * n_phases).astype(float)
+        w = normals(key, frame, point, 4 * stream + 2, 3 * n_phases).astype(real)
         return w[:n_phases], w[n_phases:2 * n_phases], w[2 * n_phases:]
 
     def split_after(c, held_a, held_b, after, w3):
@@ -176,7 +176,7 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
 
     def one_draw(src):
         c = src.constants(chain)
-        z = normals(key, frame, point, 4 * stream, n_phases).astype(float)
+        z = normals(key, frame, point, 4 * stream, n_phases).astype(real)
         mean_diff = col(c.n_a - c.n_b)
         diff = mean_diff + col(c.sd_fast) * z
         shape = diff.shape[1:]
@@ -196,7 +196,7 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
 
     def three_draws(src):
         c = src.constants(chain)
-        z = normals(key, frame, point, 4 * stream + 1, 3 * n_phases).astype(float)
+        z = normals(key, frame, point, 4 * stream + 1, 3 * n_phases).astype(real)
         a = col(c.n_a) + col(c.sd_a) * z[:n_phases]
         b = col(c.n_b) + col(c.sd_b) * z[n_phases:2 * n_phases]
         saturated, engaged = limit.flags(a, b)

@@ -220,7 +220,7 @@ NOISE_SOURCES: tuple[type[AbstractNoiseSource], ...] = (ResetNoise, HoldNoise, P
 
 def _variance_e2(sources, charges: TapCharges) -> tuple[Array, Array]:
     """Total variance of taps A and B from ``sources``, ``(*b, phases)``."""
-    var_a = var_b = jnp.zeros(charges.photo_a.shape)
+    var_a = var_b = jnp.zeros(charges.photo_a.shape, charges.photo_a.dtype)
     for source in sources:
         a, b = source.variance_e2(charges)
         var_a, var_b = var_a + a, var_b + b
@@ -273,7 +273,7 @@ class NoiseBudget(eqx.Module):
         from ._result import NoiseBreakdown
 
         shape = charges.signal_e.shape
-        sources, read, total = {}, jnp.zeros(shape), jnp.zeros(shape)
+        sources, read, total = {}, jnp.zeros(shape, charges.signal_e.dtype), jnp.zeros(shape, charges.signal_e.dtype)
         for source in self.sources:
             a, b = source.variance_e2(charges)
             var = mean_last(jnp.broadcast_to(a + b, charges.photo_a.shape))

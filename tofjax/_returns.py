@@ -143,7 +143,7 @@ def _tan_half(fov_deg: Array) -> Array:
 def footprint_integral(illumination: Illumination, falloff_exponent) -> Array:
     """S = the integral of cos^n(theta) over the FoV's footprint on a plane at 1 m, m^2 (n = 0:
     pi tan^2(FoV/2) or 4 tan(h/2) tan(v/2), the thesis' spot area at 1 m, Eq 3.1)."""
-    n = jnp.asarray(falloff_exponent, dtype=float)
+    n = _real(falloff_exponent)
     t = _tan_half(illumination.fov_deg)
     if illumination.fov_deg.shape == ():
         # integral over the disc of radius T of (1 + rho^2)^(-n/2) 2 pi rho d rho, in closed form
@@ -152,9 +152,9 @@ def footprint_integral(illumination: Illumination, falloff_exponent) -> Array:
         small = jnp.abs(m) < 1e-8
         m_safe = jnp.where(small, 1.0, m)
         return jnp.pi * jnp.where(small, u, jnp.expm1(m_safe * u) / m_safe)
-    x = jnp.asarray(_GL_X) * t[0]
-    y = jnp.asarray(_GL_X) * t[1]
-    w = jnp.asarray(_GL_W)
+    x = jnp.asarray(_GL_X, t.dtype) * t[0]
+    y = jnp.asarray(_GL_X, t.dtype) * t[1]
+    w = jnp.asarray(_GL_W, t.dtype)
     f = (1.0 + x[:, None] ** 2 + y[None, :] ** 2) ** (-0.5 * n)
     return t[0] * t[1] * jnp.sum(w[:, None] * w[None, :] * f)
 
@@ -171,7 +171,7 @@ def intensity_per_w(illumination: Illumination, falloff_exponent, v: Float[Array
         inside = tx * tx + ty * ty <= t * t
     else:
         inside = (jnp.abs(tx) <= t[0]) & (jnp.abs(ty) <= t[1])
-    n = jnp.asarray(falloff_exponent, dtype=float)
+    n = _real(falloff_exponent)
     # cos^(n - 3) = (1 + tan^2)^((3 - n) / 2), as exp and log1p: XLA's CPU pow of a traced exponent
     # costs several times as much, per sub-pixel ray.
     value = jnp.exp((1.5 - 0.5 * n) * jnp.log1p(tx * tx + ty * ty)) / footprint_integral(illumination, n)
@@ -190,8 +190,15 @@ def axis_return(illumination: Illumination, falloff_exponent, reflectivity: Arra
 
 
 def _illuminator(baseline_m) -> Array:
-    b = jnp.asarray(baseline_m, dtype=float)
+    b = _real(baseline_m)
     return jnp.stack([b[0], b[1], jnp.zeros_like(b[0])])
+
+
+def _real(x) -> Array:
+    """``x`` as a floating-point array in its own precision (a float32 camera's stays float32, an
+    integer or a Python number becomes float64)."""
+    x = jnp.asarray(x)
+    return x if jnp.issubdtype(x.dtype, jnp.floating) else x.astype(float)
 
 
 def direct_returns(illumination: Illumination, falloff_exponent, baseline_m, surface: Surface,

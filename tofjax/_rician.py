@@ -142,7 +142,8 @@ def moments(v: Float[Array, "*b"]) -> tuple[Float[Array, "*b"], Float[Array, "*b
     """(G(v), M(v)) for first-order phase variances ``v`` (module docstring); ``v = inf`` (no
     signal) gives G = pi^2 / 3."""
     c = _coefficients()
-    v = jnp.minimum(v, 1e200)  # no signal: finite values and zero (not NaN) derivatives
+    # No signal (v = inf): finite values and zero (not NaN) derivatives, in the input's precision.
+    v = jnp.minimum(v, math.sqrt(float(jnp.finfo(jnp.result_type(v)).max)))
     low = v <= V_SPLIT
     v_low = jnp.minimum(v, V_SPLIT)  # each series at a point of its own interval: finite, no stray gradient
     v_high = jnp.maximum(v, V_SPLIT)

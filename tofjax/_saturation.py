@@ -108,7 +108,7 @@ class AbstractLimit(AbstractStage):
     def moments(self, m: Moments) -> Moments:
         held_a, held_b = self(m.a, m.b)
         slope_a, slope_b = self.slopes(m.a, m.b)
-        zero = jnp.zeros(())
+        zero = jnp.zeros((), held_a.dtype)
         return replace(m, a=held_a, b=held_b, diff=held_a - held_b,
                        var_diff=slope_a**2 * m.var_a + slope_b**2 * m.var_b, post_a=zero, post_b=zero)
 

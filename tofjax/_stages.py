@@ -63,7 +63,7 @@ class Moments(eqx.Module):
     @classmethod
     def of(cls, charges: TapCharges) -> Moments:
         """The moments the exposure hands on: the expected charges, no variance yet."""
-        zero = jnp.zeros(charges.photo_a.shape)
+        zero = jnp.zeros(charges.photo_a.shape, charges.photo_a.dtype)
         return cls(charges, charges.a, charges.b, zero, zero)
 
     @property
