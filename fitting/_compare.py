@@ -384,21 +384,30 @@ def _quantity_value(quantity: str, x: float) -> str:
     return f"{1e3 * x:.4g} mm" if quantity.endswith("_m") else f"{x:.4g} LSB"
 
 
+def _signed(quantity: str, margin: float) -> str:
+    """A margin with its sign, in its quantity's display unit."""
+    return ("+" if margin >= 0 else "-") + _quantity_value(quantity, abs(margin))
+
+
+def _where(c: FileComparison, i: int) -> str:
+    """Row ``i`` of a file by its swept value (``distance [m] = 1.5``)."""
+    axis = SWEEP_AXES[c.sweep_variable]
+    return f"{axis.axis_label} = {c.x[i] * axis.display_scale:.4g}"
+
+
 def bound_lines(c: FileComparison) -> list[str]:
     """One line per bound of a file: met rows, the worst margin (absolute and relative to the bound)
     and where (the console's and the report's words)."""
-    axis = SWEEP_AXES[c.sweep_variable]
     out = []
     for b in c.bounds:
         s = b.summary()
         if not s["rows"]:
             continue
-        i = s["worst"]
-        where = f"{axis.axis_label} = {c.x[i] * axis.display_scale:.4g}"
+        where = _where(c, s["worst"])
         if not math.isfinite(s["margin"]):
             worst = f"the model has no value (saturated) at {where}"
         else:
-            worst = (f"worst margin {'+' if s['margin'] >= 0 else '-'}{_quantity_value(b.quantity, abs(s['margin']))} "
+            worst = (f"worst margin {_signed(b.quantity, s['margin'])} "
                      f"(model/bound {s['model_over_bound']:.3g}) at {where}")
         verdict = "met" if s["met"] == s["rows"] else "NOT met"
         out.append(f"{b.column} ({b.text} bound): {verdict}, {s['met']} of {s['rows']} rows meet it; {worst}")
@@ -408,7 +417,6 @@ def bound_lines(c: FileComparison) -> list[str]:
 def _bounds_table(comparisons: list[FileComparison]) -> Table:
     rows = []
     for c in comparisons:
-        axis = SWEEP_AXES[c.sweep_variable]
         for b in c.bounds:
             s = b.summary()
             if not s["rows"]:
@@ -417,9 +425,8 @@ def _bounds_table(comparisons: list[FileComparison]) -> Table:
             rel = f"{s['model_over_bound']:.3g}" if math.isfinite(s["margin"]) else ""
             rows.append((Path(c.path).name, b.text, b.statement, str(s["rows"]), str(s["met"]),
                          _quantity_value(b.quantity, b.bound[i]), _quantity_value(b.quantity, b.model[i]),
-                         ("+" if s["margin"] >= 0 else "-") + _quantity_value(b.quantity, abs(s["margin"]))
-                         if math.isfinite(s["margin"]) else "no model value", rel,
-                         f"{axis.axis_label} = {c.x[i] * axis.display_scale:.4g}"))
+                         _signed(b.quantity, s["margin"]) if math.isfinite(s["margin"]) else "no model value", rel,
+                         _where(c, i)))
     return Table(("file", "bound", "stated", "rows", "met", "bound at worst row", "model there", "margin",
                   "model / bound", "worst row"), tuple(rows))
 
