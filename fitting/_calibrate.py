@@ -109,10 +109,10 @@ class Calibration:
         json_path = out / "calibration.json"
         write_text(json_path, json.dumps(self.as_dict(), indent=2))
         written += [toml_path, json_path]
-        written += _figures(self, out)
         comparisons = self.comparisons()
-        for stem, which in (("compare_initial", 0), ("compare_calibrated", 1)):
-            written += write_comparison([c[which] for c in comparisons], out, stem=stem,
+        written += _figures(self, out, comparisons)
+        for stem, which in (("compare_initial", 0), ("compare_calibrated", 1)):  # their tables; the figures above
+            written += write_comparison([c[which] for c in comparisons], out, stem=stem, figures=False,
                                         title=f"Measured vs model, {stem.split('_')[1]} parameters")
         report = _report(self, [p for p in written if p.suffix == ".png"
                                 and p.name.startswith(("fit_", "residuals", "corner"))], comparisons)
@@ -353,7 +353,25 @@ def _bands(cal: Calibration):
     return out
 
 
-def _figures(cal: Calibration, out: Path) -> list[Path]:
+def _reason_kind(reason: str) -> str:
+    """A row's reason for being left out, without its row's numbers: one legend entry per kind."""
+    if "frames valid" in reason:
+        return "saturated frames"
+    if "--min-snr" in reason:
+        return "amplitude SNR below --min-snr"
+    return reason
+
+
+#: A comparison's dense curve per fitted observable (the depth mean's panel shows the depth error).
+_COMPARE_CURVE = {"amplitude_mean_lsb": "amplitude_mean_lsb", "depth_std_m": "depth_std_m",
+                  "depth_mean_m": "depth_error_m"}
+
+
+def _figures(cal: Calibration, out: Path, comparisons=()) -> list[Path]:
+    """One figure per file (its observables: the data with their sigmas, the fitted model and its 68 %
+    band, the initial model from ``comparisons``' first of each pair, the rows left out by kind), the
+    residuals, and the posterior's corner plot. Laid out by hand with one legend per figure:
+    constrained layout and a legend per panel placed by "best" cost most of a figure's time."""
     from matplotlib.figure import Figure
 
     written = []
@@ -362,11 +380,16 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
         axis = SWEEP_AXES[rows.sweep_variable]
         label, xs = axis.axis_label, axis.display_scale
         dense_x, centre, lo, hi = bands[i]
+        initial = comparisons[i][0] if comparisons else None
         x_all = np.asarray(rows.sweep.values) * xs
-        fig = Figure(figsize=(15, 4.2), layout="constrained")
+        fig = Figure(figsize=(15, 4.4))
+        fig.subplots_adjust(left=0.05, right=0.99, top=0.84, bottom=0.12, wspace=0.25)
         axes = fig.subplots(1, len(OBSERVABLES))
         evaluated = cal.least_squares.evaluated[i]
         period = float(rows.config.params.unambiguity_range_m)
+        kinds: dict[str, list[int]] = {}
+        for k, why in rows.reasons.items():
+            kinds.setdefault(_reason_kind(why), []).append(k)
         for k, (ax, name) in enumerate(zip(axes, OBSERVABLES, strict=True)):
             data = rows.data[name][0]
             if name == "depth_mean_m":  # the systematic error: the reading against the true distance
@@ -379,28 +402,35 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
             if not np.any(np.isfinite(rows.data[name][0])):
                 ax.text(0.5, 0.9, f"{name}: not in the file (model only)", transform=ax.transAxes, ha="center",
                         color="grey")
-            # Rows left out, greyed, one legend entry per reason.
-            for n_reason, reason in enumerate(sorted(set(rows.reasons.values()))):
-                out_idx = [j for j, why in rows.reasons.items() if why == reason and np.isfinite(data[j])]
-                if out_idx:
-                    ax.plot(x_all[out_idx], data[out_idx] * scale, "x", ms=5,
-                            color=("0.55", "0.35", "0.7", "0.2")[n_reason % 4], label=f"left out: {reason}")
+            for n_kind, (kind, ks) in enumerate(sorted(kinds.items())):  # rows left out, greyed, by kind
+                shown = [j for j in ks if np.isfinite(data[j])]
+                if shown:
+                    ax.plot(x_all[shown], data[shown] * scale, "x", ms=5, color=("0.55", "0.35", "0.7", "0.2")[n_kind % 4],
+                            label=f"left out ({len(ks)} rows): {kind}")
             if lo is not None:
                 ax.fill_between(xd, lo[k] * scale, hi[k] * scale, color="C1", alpha=0.3, label="model 68 % band")
+            if initial is not None:
+                ax.plot(initial.dense_x * xs, initial.dense[_COMPARE_CURVE[name]] * scale, color="0.5", ls="--", lw=0.9,
+                        label="initial model")
             ax.plot(xd, centre[k] * scale, color="C1", label="fitted model")
             ax.errorbar(x_all[idx], values * scale, yerr=sigma * scale, fmt="o", ms=3, color="C0", label="data")
             ax.set_xlabel(label)
             ax.set_ylabel(_LABEL[name])
             ax.grid(alpha=0.3)
+        legend = {}
         for ax in axes:
-            ax.legend(fontsize=7)
-        fig.suptitle(Path(rows.path).name)
+            for handle, text in zip(*ax.get_legend_handles_labels(), strict=True):
+                legend.setdefault(text, handle)
+        fig.legend(list(legend.values()), list(legend), loc="upper right", ncols=3, fontsize=7, frameon=False)
+        fig.suptitle(Path(rows.path).name, x=0.05, ha="left")
         path = out / f"fit_{i}_{Path(rows.path).stem}.png"
         save_figure(fig, path, dpi=110)
         written.append(path)
 
     evaluated = cal.least_squares.evaluated
-    fig = Figure(figsize=(8, 2.6 * len(cal.rows)), layout="constrained")
+    height = 2.6 * len(cal.rows) + 0.4
+    fig = Figure(figsize=(8, height))
+    fig.subplots_adjust(left=0.1, right=0.98, top=1 - 0.65 / height, bottom=0.5 / height, hspace=0.6)
     axes = fig.subplots(len(cal.rows), 1, squeeze=False)
     for i, rows in enumerate(cal.rows):
         ax = axes[i, 0]
@@ -410,14 +440,15 @@ def _figures(cal: Calibration, out: Path) -> list[Path]:
             idx = rows.used(name)
             model, sigma = (np.asarray(a)[idx] for a in evaluated[i][k])
             r = (model - rows.data[name][0][idx]) / sigma
-            ax.plot(np.asarray(rows.sweep.values)[idx] * xs, r, "o", ms=3, label=name)
+            ax.plot(np.asarray(rows.sweep.values)[idx] * xs, r, "o", ms=3, color=f"C{k}", label=name)
         for level in (-2, -1, 1, 2):
             ax.axhline(level, color="grey", lw=0.6, ls=":" if abs(level) == 2 else "--")
         ax.axhline(0, color="k", lw=0.6)
         ax.set_xlabel(label)
         ax.set_ylabel("(model - data) / sigma")
         ax.set_title(Path(rows.path).name, fontsize=9)
-        ax.legend(fontsize=8)
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="upper center", ncols=len(OBSERVABLES), fontsize=8,
+               frameon=False)
     path = out / "residuals.png"
     save_figure(fig, path, dpi=110)
     written.append(path)
@@ -523,8 +554,8 @@ def _report(cal: Calibration, figures: list[Path], comparisons=()) -> Summary:
                     cell = lambda x: f"{x['median_ratio']:.3f} ({x['within']}/{x['rows']})" if x["rows"] else "-"  # noqa: E731
                     rows.append((Path(before.path).name, name, cell(a), cell(b)))
         report.sections.append(Section("Measured vs model, before and after", [
-            "Median model/measured ratio and rows within 30 % (unflagged rows; tables and figures in "
-            "compare_initial.* and compare_calibrated.*):",
+            "Median model/measured ratio and rows within 30 % (unflagged rows; the tables per row in "
+            "compare_initial.* and compare_calibrated.*; the figures show the initial model dashed):",
             Table(("file", "observable", "initial", "calibrated"), tuple(rows))]))
     report.sections.append(Section("Figures", [Figure(f.name, f.read_bytes()) for f in figures]))
     report.sections.append(Section("Use", [

@@ -33,6 +33,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
+import itertools
 import math
 import re
 from pathlib import Path
@@ -456,9 +457,10 @@ _MD_COLUMNS = (("line", "line"), ("sweep_value", "x"), ("measured_depth_error_m"
 
 
 def write_comparison(comparisons: list[FileComparison], out: str | Path, *, title: str = "Measured vs model",
-                     preamble: list[str] | None = None, stem: str = "comparison") -> list[Path]:
-    """Write ``{stem}.csv``, ``{stem}.md``, ``{stem}.html`` and one ``{stem}_<i>_<file>.png`` per
-    file into ``out`` (created); returns the paths."""
+                     preamble: list[str] | None = None, stem: str = "comparison", figures: bool = True) -> list[Path]:
+    """Write ``{stem}.csv``, ``{stem}.md``, ``{stem}.html`` and, with ``figures``, one
+    ``{stem}_<i>_<file>.png`` per file into ``out`` (created); returns the paths. Without figures the
+    reports hold the tables (``tofjax calibrate``, whose own figures show the files)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
@@ -479,7 +481,7 @@ def write_comparison(comparisons: list[FileComparison], out: str | Path, *, titl
             writer.writerows({k: _spreadsheet_safe(v) if k == "file" else v for k, v in r.items()} for r in checks)
         written.append(bounds_path)
     pngs = []
-    for i, c in enumerate(comparisons):
+    for i, c in enumerate(comparisons if figures else ()):
         fig = figure(c)
         buffer = io.BytesIO()
         fig.savefig(buffer, format="png", dpi=90)
@@ -498,10 +500,10 @@ def write_comparison(comparisons: list[FileComparison], out: str | Path, *, titl
             "conditions. The margin is bound - model for an upper bound and model - bound for a lower one: "
             "positive where the bound is met. The worst row is the one with the smallest margin.",
             _bounds_table(comparisons)]))
-    for c, rows, (png_path, png) in zip(comparisons, per_file, pngs, strict=True):
+    for c, rows, png in itertools.zip_longest(comparisons, per_file, pngs):
         name = Path(c.path).name
         report.sections.append(Section(name, [
-            Figure(png_path.name, png, name),
+            *([Figure(png[0].name, png[1], name)] if png else []),
             Table(header, tuple(tuple(r[k] for k, _ in _MD_COLUMNS) for r in rows), tuple(bool(r["flags"]) for r in rows)),
         ]))
     md_path = out / f"{stem}.md"

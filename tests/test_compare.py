@@ -176,6 +176,11 @@ def test_calibration_leaves_out_what_the_fitted_model_cannot_measure(files, tmp_
     assert "chi^2 fell by" in cal.least_squares.solver_message
     written = {p.name for p in cal.write(tmp_path / "out")}
     assert {"compare_initial.html", "compare_calibrated.csv", "fit_0_smooth.png", "residuals.png"} <= written
+    # One figure per file: the comparisons' reports are tables, the fit figure shows the initial model.
+    assert not [n for n in written if n.startswith("compare_") and n.endswith(".png")]
+    assert "![" not in (tmp_path / "out" / "compare_initial.md").read_text()
+    assert [ft._calibrate._reason_kind(f"measured amplitude SNR {v} below the limit 5 (--min-snr)") for v in (4.1, 3)] \
+        == ["amplitude SNR below --min-snr"] * 2
     report = (tmp_path / "out" / "report.md").read_text()
     assert "line 8: the fitted model saturates the pixel here" in report and "lower bound" in report
     out = tmp_path / "unconverged"

@@ -143,8 +143,14 @@ def test_scripts_and_notebooks_turn_the_compilation_cache_on():
 
     import tofjax as tj
 
-    path = tj.enable_compilation_cache()
-    assert path is not None and jax.config.jax_compilation_cache_dir == path
+    before = (jax.config.jax_compilation_cache_dir, jax.config.jax_persistent_cache_min_compile_time_secs)
+    try:
+        path = tj.enable_compilation_cache()
+        assert path is not None and jax.config.jax_compilation_cache_dir == path
+        assert jax.config.jax_persistent_cache_min_compile_time_secs == 0.0  # every program is kept
+    finally:  # the rest of this worker's tests compile as before
+        jax.config.update("jax_compilation_cache_dir", before[0])
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", before[1])
     for notebook in sorted((Path(__file__).resolve().parents[1] / "notebooks").glob("*.ipynb")):
         cells = [c for c in json.loads(notebook.read_text())["cells"] if c["cell_type"] == "code"]
         assert "tj.enable_compilation_cache()" in "".join(cells[1]["source"]), notebook.name
