@@ -176,8 +176,8 @@ def test_public_api_under_jit_vmap_grad():
     eager = tj.predict(p, sweep).depth_std_m
     jitted = jax.jit(lambda q: tj.predict(q, sweep).depth_std_m)(p)
     np.testing.assert_allclose(jitted, eager, rtol=1e-12)
-    # Every field: called directly, predict runs three programs that pass their inputs on outside
-    # them (tofjax._analytic._passed_on); under jit, one traced program (and the series, 6 points).
+    # Every field: called directly, predict runs three programs, the moments' without what the result
+    # does not read (tofjax._analytic._UNREAD), and a table; under jit one program and the series.
     direct, traced = tj.predict(p, sweep), jax.jit(lambda q: tj.predict(q, sweep))(p)
     assert jax.tree_util.tree_structure(direct) == jax.tree_util.tree_structure(traced)
     for a, b in zip(jax.tree_util.tree_leaves(direct), jax.tree_util.tree_leaves(traced), strict=True):

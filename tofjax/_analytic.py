@@ -12,7 +12,6 @@ numerically; the cost per operating point is a few hundred flops and O(phases) m
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 
 import jax.numpy as jnp
@@ -62,17 +61,6 @@ def unwrap_if_sweep(phase: Array, keep: Array) -> Array:
     return jnp.where(keep, phase, jnp.nan)
 
 
-def _passed_on(sweep: Sweep, m: Moments) -> dict[str, Array]:
-    """The result's fields that are its inputs as they are: the held taps, the expected codes and the
-    swept values. :func:`predict`'s result program leaves them out and they are set after it: a
-    program's output is a copy (at 1e5 points the copies were a fifth of ``predict``'s bytes)."""
-    return {"tap_a_e": m.a, "tap_b_e": m.b, "code_mean": m.code, "sweep_values": sweep.values}
-
-
-#: The moments :func:`analytic` does not read: :func:`predict`'s moments program does not write them.
-_UNREAD = ("diff", "post_a", "post_b", "var_code")
-
-
 def _nan_unless(ok: Array, x: Array) -> Array:
     return jnp.where(ok, x, jnp.nan)
 
@@ -87,25 +75,11 @@ def moments(chain: Chain, sweep: Sweep, charges: TapCharges | None = None) -> Mo
 
 def analytic(chain: Chain, sweep: Sweep, m: Moments | None = None) -> Result:
     """:func:`predict` on a built chain (module docstring); ``m``: its :func:`moments`, if computed."""
-    m = moments(chain, sweep) if m is None else m
-    return _result(sweep, m, _computed(chain, sweep, m))
-
-
-def _result(sweep: Sweep, m: Moments, computed: dict[str, Array], passed_on: bool = True) -> Result:
-    """The analytic :class:`Result` of its ``computed`` fields (:func:`_computed`) and its inputs
-    (without ``passed_on``: ``None`` there, for :func:`_filled`)."""
-    inputs = _passed_on(sweep, m)
-    return Result(method="analytic", sweep_variable=sweep.variable, n_frames=0, codes=None, phase_rad=None,
-                  depth_m=None, depth_unwrapped_m=None, amplitude_lsb=None, valid=None, **computed,
-                  **(inputs if passed_on else dict.fromkeys(inputs)))
-
-
-def _computed(chain: Chain, sweep: Sweep, m: Moments) -> dict[str, Array]:
-    """The analytic result's fields that the moments do not hold as they are (:func:`analytic`)."""
     params = chain.params
     d, ev, t, temp = sweep.operating_points(params)
+    m = moments(chain, sweep) if m is None else m
     charges, var_a, var_b, held_a, held_b, var_held = m.charges, m.var_a, m.var_b, m.a, m.b, m.var_diff
-    u, slope_u = m.u, m.slope_u
+    code, u, slope_u = m.code, m.u, m.slope_u
     phase, var_phase, v_first, amp, var_amp = m.phase, m.var_phase, m.v_first, m.amp, m.var_amp
     n_a, n_b = charges.a, charges.b
     limit, readout, noise = chain.limit, chain.readout, chain.noise
@@ -128,10 +102,13 @@ def _computed(chain: Chain, sweep: Sweep, m: Moments) -> dict[str, Array]:
     to_m = chain.unambiguity_range_m / (2.0 * jnp.pi)
     tap_a_v, tap_b_v = chain.tap_volts(held_a, held_b)
     breakdown = noise.breakdown(charges, jnp.sqrt(readout.quantization_variance_lsb2) * readout.lsb_e)
-    return dict(
-        distance_m=d, illuminance_lx=ev, integration_time_s=t, temperature_c=temp,
+    return Result(
+        method="analytic", sweep_variable=sweep.variable, n_frames=0,
+        sweep_values=sweep.values, distance_m=d, illuminance_lx=ev, integration_time_s=t, temperature_c=temp,
         unambiguity_range_m=chain.unambiguity_range_m,
-        tap_a_v=tap_a_v, tap_b_v=tap_b_v, differential_v=tap_b_v - tap_a_v,
+        tap_a_e=held_a, tap_b_e=held_b, tap_a_v=tap_a_v, tap_b_v=tap_b_v, differential_v=tap_b_v - tap_a_v,
+        code_mean=code, codes=None, phase_rad=None, depth_m=None, depth_unwrapped_m=None, amplitude_lsb=None,
+        valid=None,
         depth_mean_m=_nan_unless(keep, to_m * phase),
         depth_unwrapped_mean_m=to_m * unwrap_if_sweep(phase, keep),
         depth_std_m=_nan_unless(keep, to_m * _depth.safe_sqrt(var_phase)),
@@ -182,7 +159,7 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None, patte
     padded = _executor.padded(sweep, (params, sweep, smooth, sample))
     chain, charges = _predict_exposure(params, padded, smooth, sample)
     m = _predict_moments(chain, padded, charges)
-    return unpad(_filled(_predict_result(chain, padded, m, charges), _passed_on(padded, m)), sweep, padded)
+    return unpad(_predict_result(chain, padded, m), sweep, padded)
 
 
 # predict runs as three programs, the exposure, the moments and the result: XLA on CPU fuses a
@@ -195,25 +172,19 @@ def _predict_exposure(params: Params, sweep: Sweep, smooth: Smooth | None, sampl
     return chain, chain.expose(*sweep.operating_points(params))
 
 
-# Each program writes only what the next one reads: the moments without the charges (the exposure's,
-# passed on) and without what the result does not read, the result without its inputs (_passed_on),
-# (None there, filled after it).
+#: The moments :func:`analytic` does not read: :func:`predict`'s moments program does not write them
+#: (4 of its 12 arrays per phase image). Its other outputs stay, the charges and the result's copies of
+#: its inputs too: a result holding an earlier program's buffers instead (no copies) made ``predict``
+#: of 1e5 points 1.5x slower here, 12 000 page faults per call against 1 700 (docs/model.md,
+#: "Performance", measurement 18).
+_UNREAD = ("diff", "post_a", "post_b", "var_code")
+
+
 @_jit.jit
 def _predict_moments(chain: Chain, sweep: Sweep, charges: TapCharges) -> Moments:
-    return dataclasses.replace(moments(chain, sweep, charges), charges=None, **dict.fromkeys(_UNREAD))
+    return dataclasses.replace(moments(chain, sweep, charges), **dict.fromkeys(_UNREAD))
 
 
 @_jit.jit
-def _predict_result(chain: Chain, sweep: Sweep, m: Moments, charges: TapCharges) -> Result:
-    m = dataclasses.replace(m, charges=charges)
-    return _result(sweep, m, _computed(chain, sweep, m), passed_on=False)
-
-
-def _filled(result: Result, fields: dict[str, Array]) -> Result:
-    """``result`` with ``fields`` (its :func:`_passed_on` inputs) set: a copy whose fields are set as
-    a pytree's unflattening sets them, without the module's ``__init__`` (built once, in the program's
-    trace; ``Result(...)`` or ``dataclasses.replace`` cost 85-100 us per call, this 8 us)."""
-    out = copy.copy(result)
-    for name, value in fields.items():
-        object.__setattr__(out, name, value)
-    return out
+def _predict_result(chain: Chain, sweep: Sweep, m: Moments) -> Result:
+    return analytic(chain, sweep, m)
