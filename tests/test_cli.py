@@ -87,6 +87,13 @@ def test_no_traceback_from_the_installed_entry_point(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.strip() == ('tofjax: error: ' + str(cfg) + ': unknown key camera.k_lense (did you mean "k_lens"?)')
     assert not (tmp_path / "x.csv").exists()
+    # A command ends without the interpreter's teardown (tofjax.cli.entry_point): what it printed into a
+    # pipe (block-buffered, a table shorter than the buffer) still arrives whole, its file complete.
+    proc = subprocess.run([sys.executable, "-m", "tofjax.cli", "simulate", "--sweep", "distance", "--samples", "5",
+                           "--method", "analytic", "--quiet", "--out", str(tmp_path / "y.csv")],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0 and proc.stdout.startswith("distance [m]") and "eye safety" in proc.stdout
+    assert sf.read_sweep(tmp_path / "y.csv").n_rows == 5
 
 
 def test_help_imports_neither_jax_nor_matplotlib():
