@@ -19,8 +19,9 @@ rows are concatenated into one sweep, so one :func:`tofjax.predict` evaluates th
 under another lamp than the group's joins it with its illuminance rescaled to the group's lamp: the
 model reads the illuminance only through the in-band photon irradiance, which is linear in it
 (§3.1.2, Eq 3.4), so E lx of lamp L give what E k_L / k_0 lx of the group's lamp give (k: in-band
-photons per lux through the filter). The ratio is fixed by the filter, so files under different lamps
-keep groups of their own when the filter's band is fitted (:data:`BAND_PARAMETERS`). The dense curves the figures draw
+photons per lux through the filter, weighted by the sensor's spectral response). The ratio is fixed by the
+filter and the response, so files under different lamps keep groups of their own when the filter's band
+or the response is fitted (:data:`BAND_PARAMETERS`). The dense curves the figures draw
 (:data:`DENSE_POINTS` per file) ride along as extra rows of the same call. Bounds, priors, starting
 values, operating points and data are arrays, so a new data set of the same shape, or other bounds,
 reuse the compiled programs; only the parameter names, the groups and the row counts are structure.
@@ -55,8 +56,12 @@ VALID_SCALE = 1e-4
 
 def nearest_period(depth, reference, period):
     """``depth`` moved by whole ``period``s to the one nearest ``reference`` (a reading wraps at the
-    unambiguity range, or at the fused frequencies' extended range). Traced or host arrays."""
-    return depth + period * jnp.round((reference - depth) / period)
+    unambiguity range, or at the fused frequencies' extended range). Traced or host arrays (those in
+    NumPy: JAX would compile each operation for each shape)."""
+    if any(isinstance(x, jax.core.Tracer) for x in (depth, reference, period)):
+        return depth + period * jnp.round((reference - depth) / period)
+    depth, reference, period = (np.asarray(x) for x in (depth, reference, period))
+    return depth + period * np.round((reference - depth) / period)
 
 
 def dense_sweep(s: tj.Sweep, n: int = DENSE_POINTS) -> dict[str, np.ndarray]:
@@ -162,15 +167,23 @@ class FileGroup(eqx.Module):
         return tj.Sweep.points("distance", d, e * self.lamp_scale[:n], t, temperature)
 
 
-#: Free parameters that set the filter's band, and with it how the lamps' in-band photons per lux
-#: compare: with one of them fitted, files under different lamps keep groups of their own.
-BAND_PARAMETERS = ("illumination.wavelength_m", "scene.filter_half_width_m")
+#: Free parameters that set the filter's band or the sensor's spectral response, and with them how
+#: the lamps' detected photons per lux compare: with one of them fitted, files under different lamps
+#: keep groups of their own.
+BAND_PARAMETERS = ("illumination.wavelength_m", "scene.filter_half_width_m", "pixel.collection_depth_m")
 
 
 def _photons_per_lux(params: tj.Params, lamp: str) -> float:
-    """In-band background photon irradiance per lux of ``lamp`` through ``params``' filter, 1/(s m^2 lx)."""
-    return float(tj.optics.background_photon_irradiance(lamp, 1.0, params.illumination.wavelength_m,
-                                                 params.scene.filter_half_width_m, params.constants))
+    """Detected in-band background photon irradiance per lux of ``lamp`` through ``params``' filter and
+    spectral response (the model's, tofjax's ``scene_photon_irradiance``), 1/(s m^2 lx)."""
+    return float(_in_band_per_lux(params, lamp))
+
+
+@tj.jit
+def _in_band_per_lux(params: tj.Params, lamp: str):  # one program, where its operations each compiled one
+    return tj.optics.background_photon_irradiance(lamp, 1.0, params.illumination.wavelength_m,
+                                                  params.scene.filter_half_width_m, params.constants,
+                                                  params.pixel.collection_depth_m)
 
 
 def _under_lamp(params: tj.Params, lamp: str) -> tj.Params:
@@ -288,7 +301,7 @@ class Problem(eqx.Module):
         return jnp.stack(out)
 
     def initial_unconstrained(self) -> Float[Array, " params"]:
-        return self.unconstrained(self.initial)
+        return _unconstrained(self, self.initial)
 
     def constrained(self, u: Float[Array, " params"]) -> Float[Array, " params"]:
         out = []
@@ -469,6 +482,11 @@ def linearize(problem: Problem, u) -> Linearization:
     (jac, curves_jac), (theta, residuals, evaluated, curves) = jax.jacfwd(outputs, has_aux=True)(u)
     dtheta = jnp.diagonal(jax.jacfwd(problem.constrained)(u))
     return Linearization(theta, dtheta, residuals, jac, evaluated, curves, curves_jac)
+
+
+@tj.jit
+def _unconstrained(problem: Problem, theta):  # one program, where its operations each compiled one
+    return problem.unconstrained(theta)
 
 
 @tj.jit

@@ -51,7 +51,7 @@ def test_recovers_the_true_parameters_within_three_sigma(example_fit):
     assert abs(ls.estimate[0] - 0.42) > 2 * ls.sigma[0]
 
 
-def test_files_under_another_lamp_join_the_group_at_the_same_photons(example_fit):
+def test_files_under_another_lamp_join_the_group_at_the_same_photons(example_fit, config):
     """The example's illuminance sweep was taken under a halogen lamp, the other two under sunlight:
     one group (one model call per step), the halogen rows at the sunlight illuminance that gives the
     same in-band photons. The group's hard model at the solution equals each file's own (its lamp,
@@ -75,6 +75,23 @@ def test_files_under_another_lamp_join_the_group_at_the_same_photons(example_fit
                               {**dict(zip(NAMES, example_fit.least_squares.estimate, strict=True)),
                                "illumination.wavelength_m": float(rows[0].params.illumination.wavelength_m)})
     assert [g.files for g in ft.build_problem(band, rows).groups] == [(0, 1), (2,)]
+    # With a spectral response (not flat) the lamps' ratio is the detected photons' (the model's own):
+    # the halogen file's rows, merged, still equal its own model; fitting the response splits the group.
+    deep = config.replace("pixel.collection_depth_m", 30e-6)
+    rows_deep = [ft.load_rows(path, deep) for path in FILES]
+    deep_problem = ft.build_problem(band[:3], rows_deep)
+    (group,) = deep_problem.groups
+    merged = hard(deep_problem.with_values(group.params, theta), group.model_sweep(dense=False), group.frequencies_hz,
+                  group.fusion)
+    lo, hi = group.bounds[2]
+    own = hard(deep_problem.with_values(rows_deep[2].params, theta), rows_deep[2].sweep, group.frequencies_hz,
+               group.fusion)
+    np.testing.assert_allclose(merged.amplitude_mean_lsb[lo:hi], own.amplitude_mean_lsb, rtol=1e-12)
+    np.testing.assert_allclose(merged.depth_std_m[lo:hi], own.depth_std_m, rtol=1e-12)
+    response = ft.make_parameters([*NAMES, "pixel.collection_depth_m"],
+                                  {**dict(zip(NAMES, example_fit.least_squares.estimate, strict=True)),
+                                   "pixel.collection_depth_m": 30e-6})
+    assert [g.files for g in ft.build_problem(response, rows_deep).groups] == [(0, 1), (2,)]
 
 
 def test_transforms_are_bijective_and_never_clip():
