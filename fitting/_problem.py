@@ -173,17 +173,14 @@ class FileGroup(eqx.Module):
 BAND_PARAMETERS = ("illumination.wavelength_m", "scene.filter_half_width_m", "pixel.collection_depth_m")
 
 
-def _photons_per_lux(params: tj.Params, lamp: str) -> float:
-    """Detected in-band background photon irradiance per lux of ``lamp`` through ``params``' filter and
-    spectral response (the model's, tofjax's ``scene_photon_irradiance``), 1/(s m^2 lx)."""
-    return float(_in_band_per_lux(params, lamp))
-
-
 @tj.jit
-def _in_band_per_lux(params: tj.Params, lamp: str):  # one program, where its operations each compiled one
-    return tj.optics.background_photon_irradiance(lamp, 1.0, params.illumination.wavelength_m,
-                                                  params.scene.filter_half_width_m, params.constants,
-                                                  params.pixel.collection_depth_m)
+def _photons_per_lux(params: tj.Params, lamps: tuple[str, ...]):
+    """Detected in-band background photon irradiance per lux of each of ``lamps`` through ``params``'
+    filter and spectral response (the model's, tofjax's ``scene_photon_irradiance``), 1/(s m^2 lx):
+    one program, where its operations each compiled one."""
+    return jnp.stack([tj.optics.background_photon_irradiance(lamp, 1.0, params.illumination.wavelength_m,
+                                                             params.scene.filter_half_width_m, params.constants,
+                                                             params.pixel.collection_depth_m) for lamp in lamps])
 
 
 def _under_lamp(params: tj.Params, lamp: str) -> tj.Params:
@@ -205,7 +202,7 @@ def _lamp_scale(group_params: tj.Params, params: tj.Params, merge_lamps: bool) -
         return 1.0 if _same_camera(group_params, params) else None
     if not merge_lamps or not _same_camera(group_params, _under_lamp(params, lamp)):
         return None
-    k0, k = _photons_per_lux(group_params, lamp), _photons_per_lux(group_params, own)
+    k0, k = (float(x) for x in _photons_per_lux(group_params, (lamp, own)))
     return k / k0 if k0 > 0.0 and k > 0.0 and np.isfinite(k / k0) else None
 
 
