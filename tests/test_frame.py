@@ -573,8 +573,8 @@ def test_sharded_map_compiles_once_per_function():
     for _ in range(2):
         np.testing.assert_array_equal(tj.parallel.sharded_map(fn, jnp.arange(3.0)), [0.0, 2.0, 4.0])
     assert len(traced) == 1
-    # A function that cannot be a cache key (a prepared camera's bound method: an equinox Module,
-    # unhashable) still runs, built per call.
+    # A function that is a new object at every access (a prepared camera's method, tofjax._jit.method)
+    # still runs, built per call.
     params, settings = small(), tj.FrameSettings(subpixel_samples=1)
     camera = tj.Camera(params, settings).prepare()
     walls = jax.vmap(lambda d: tj.Camera(params, settings).returns(scenes.wall(d)))(jnp.array([1.0, 1.5]))

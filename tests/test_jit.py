@@ -60,3 +60,37 @@ def test_unknown_argument_refused():
     f, _ = _counted()
     with pytest.raises(TypeError):
         f(Box(jnp.ones(1), 1.0), nonsense=1)
+
+
+class Holder(eqx.Module):
+    x: jax.Array
+
+    @_jit.method
+    def scaled(self, k: float = 2.0) -> jax.Array:
+        """x times k."""
+        return k * self.x
+
+    def plain(self):
+        return self.x
+
+
+def test_method_is_bound_without_building_a_module():
+    """tofjax._jit.method: an equinox module's method bound as a partial, not as equinox's BoundMethod
+    (a module built per access, which checks every leaf of the instance); the class attribute keeps
+    its name, docstring and signature; it runs through the class and under jit."""
+    import inspect
+
+    h = Holder(jnp.arange(3.0))
+    assert isinstance(h.plain, eqx.Module)  # what equinox does to a method
+    assert not isinstance(h.scaled, eqx.Module) and h.scaled.func is Holder.scaled.__func__
+    assert Holder.scaled.__doc__ == "x times k." and list(inspect.signature(Holder.scaled).parameters) == ["self", "k"]
+    np.testing.assert_array_equal(h.scaled(3.0), [0.0, 3.0, 6.0])
+    np.testing.assert_array_equal(Holder.scaled(h), [0.0, 2.0, 4.0])
+    np.testing.assert_array_equal(jax.jit(lambda g: g.scaled())(h), [0.0, 2.0, 4.0])
+    camera = tofjax.Camera(tofjax.Params(), tofjax.FrameSettings())
+    assert not isinstance(camera.prepare, eqx.Module) and not isinstance(camera.expose, eqx.Module)
+    from tofjax._frame import PreparedCamera, PreparedFrame
+
+    for cls, names in ((PreparedCamera, ("expose", "sample", "noise_image", "predict", "prepare", "render")),
+                       (PreparedFrame, ("render", "predict", "noise_image", "sample"))):
+        assert all(isinstance(vars(cls)[name], _jit.method) for name in names), cls

@@ -30,6 +30,7 @@ import jax
 import numpy as np
 from jaxtyping import PRNGKeyArray
 
+from . import _jit
 from ._framegeometry import FrameSettings, check_lens, depth_returns, scene_returns
 from ._motion import MovingScene, moving_depth_returns, moving_returns, per_phase_returns
 from ._params import Params
@@ -98,6 +99,7 @@ class Camera(eqx.Module):
         fusion = config.values["illumination_waveform"]["frequency_fusion"]
         return cls(config.params, config.frame, freqs if len(freqs) > 1 else (), fusion, pattern, smooth)
 
+    @_jit.method
     def astype(self, precision: str) -> Camera:
         """This camera with its frames computed in ``precision``: ``"float64"`` (the default) or
         ``"float32"`` (consumer GPUs run float64 at 1/32-1/64 of float32's speed). The parameters stay
@@ -112,6 +114,7 @@ class Camera(eqx.Module):
         """Whether the camera fuses several modulation frequencies."""
         return len(self.frequencies_hz) > 1
 
+    @_jit.method
     def returns(self, scene, *, reflectivity=0.9, radial: bool = False, sun_direction=None, bins: int = 32,
                 velocity_m_per_s=None, substeps: int = 4) -> Returns:
         """A frame scene's :class:`tofjax.Returns`, every pixel's returns: as given; ray-cast from a
@@ -145,6 +148,7 @@ class Camera(eqx.Module):
                         "(tofjax.scenes.moving), one tofjax.Returns per phase image (a list) or a depth map (an array "
                         f"of the frame's shape), got {type(scene).__name__}")
 
+    @_jit.method
     def prepare(self):
         """The camera prepared for frames once: its frame chain, each pixel's conversion of radiance
         to electrons, dark electrons and ray (``tofjax._frame.PreparedCamera``). Its methods take a
@@ -159,6 +163,7 @@ class Camera(eqx.Module):
         prepared = prepare_camera(self.params, self.settings, self.pattern, smooth=self.smooth)
         return prepared if self.precision == "float64" else in_precision(prepared, self.precision)
 
+    @_jit.method
     def expose(self, scene):
         """A frame scene exposed once on this camera (``tofjax._frame.PreparedFrame``): its
         ``predict()``, ``render(key, frames, keep_frames=, raw=, progress=)``, ``sample(key, frames,
@@ -184,17 +189,20 @@ class Camera(eqx.Module):
 
         return eye_safety(self.params, self.timing, self.settings.illumination_falloff_exponent)
 
+    @_jit.method
     def _no_pattern(self, what: str) -> None:
         if self.pattern is not None:
             raise ValueError(f"{what} runs the mean pixel: this camera has a pattern (Camera.pattern), which it would "
                              "not honour; drop it, or sweep one frequency")
 
+    @_jit.method
     def _double(self, what: str) -> None:
         if self.precision != "float64":
             raise ValueError(f"{what} runs in float64: this camera computes its frames in precision = "
                              f"{self.precision!r} (Camera.astype), which a sweep does not honour; use "
                              "camera.astype('float64')")
 
+    @_jit.method
     def _one_frequency(self, what: str) -> None:
         if self.multifrequency:
             raise ValueError(f"{what} simulates one modulation frequency: this camera has {len(self.frequencies_hz)} "

@@ -152,6 +152,7 @@ class PreparedCamera(eqx.Module):
     def shape(self) -> tuple[int, int]:
         return tuple(self.dark_a_e.shape)
 
+    @_jit.method
     def expose(self, returns: Returns) -> Exposure:
         """Every pixel's :class:`Exposure` of a scene, at the camera's illuminance and
         integration time: each return sorted by the mixer with its own delay f path / c (Eq 3.22)
@@ -163,6 +164,7 @@ class PreparedCamera(eqx.Module):
         :func:`_materialised` instead."""
         return self._with_camera(*programs(_scene_light, _scene_light_materialised, (self, returns)))
 
+    @_jit.method
     def _scene_light(self, returns: Returns) -> tuple[Array, Array, Array]:
         """What of the exposure depends on the scene: (modulated, signal, background) electrons."""
         params = self.chain.params
@@ -198,10 +200,12 @@ class PreparedCamera(eqx.Module):
         signal = jnp.einsum("...k,kp->...p", scaled, jnp.asarray(phases))
         return modulated, signal, background
 
+    @_jit.method
     def _with_camera(self, modulated: Array, signal: Array, background: Array) -> Exposure:
         return Exposure(modulated, signal, background, self.chain.params.pixel.demodulation_contrast,
                              self.pattern.tap_asymmetry, self.dark_a_e, self.dark_b_e)
 
+    @_jit.method
     def sample(self, returns: Returns, key: PRNGKeyArray, frames: int = 1, *, raw: bool = False) -> NoisyFrames:
         """``frames`` noisy frames of a scene (what a stream of changing scenes needs): radial distance, amplitude and
         validity, ``(frames, rows, cols)``, and with ``raw`` their raw phase images."""
@@ -209,12 +213,14 @@ class PreparedCamera(eqx.Module):
         check_counts(frames, frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS)
         return _sample_charges(self.chain, self.expose(returns), key, frames, self.shape, raw)
 
+    @_jit.method
     def noise_image(self, returns: Returns) -> Float[Array, "rows cols"]:
         """A scene's noise image: each pixel's analytic standard deviation of
         its radial distance, m."""
         returns = self._check(returns)
         return _noise_image_prepared(self.chain, returns.radial_m, self.expose(returns))
 
+    @_jit.method
     def predict(self, returns: Returns) -> FrameResult:
         """A scene's analytic frame (``tj.predict(camera, returns)``)."""
         returns = self._check(returns)
@@ -222,6 +228,7 @@ class PreparedCamera(eqx.Module):
         quality = _quality(self.chain, self.settings, returns, self.direction, *_phase_noise(result))
         return FrameResult(result, returns.radial_m, self.direction, self.pattern, quality)
 
+    @_jit.method
     def prepare(self, returns: Returns) -> PreparedFrame:
         """A scene exposed once (:meth:`tofjax.Camera.expose`), with its flags' expected noise and amplitude
         (the analytic frame's) and the scene's own flags."""
@@ -232,6 +239,7 @@ class PreparedCamera(eqx.Module):
         return PreparedFrame(self.chain, sweep, Prepared(charges, consts), returns.radial_m, self.direction,
                              self.pattern, quality)
 
+    @_jit.method
     def render(self, returns: Returns, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0,
                raw: bool = False, progress: bool = False) -> FrameResult:
         """Monte Carlo frames of a scene and their statistics (``tj.simulate(camera, returns, ...)``)."""
@@ -239,6 +247,7 @@ class PreparedCamera(eqx.Module):
         check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS, raw=raw)
         return self.prepare(returns).render(key, frames, keep_frames=keep_frames, raw=raw, progress=progress)
 
+    @_jit.method
     def _check(self, returns) -> Returns:
         """``returns`` for this camera: its type and shape, its values where traced
         (:meth:`tofjax.Returns.checked`)."""
@@ -429,6 +438,7 @@ class PreparedFrame(eqx.Module):
     def shape(self) -> tuple[int, int]:
         return tuple(self.radial_true_m.shape)
 
+    @_jit.method
     def render(self, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0, raw: bool = False,
                progress: bool = False) -> FrameResult:
         """``frames`` Monte Carlo frames (``tj.simulate(camera, scene, ...)`` is ``camera.expose(scene).render(...)``)."""
@@ -437,16 +447,19 @@ class PreparedFrame(eqx.Module):
                                   points=math.prod(self.shape), frames=frames, keep=keep_frames,
                                   phases=self.chain.n_phases, elements=FRAME_CHUNK_ELEMENTS, progress=progress))
 
+    @_jit.method
     def predict(self) -> FrameResult:
         """The analytic frame, the noise image (``tj.predict(camera, scene)``)."""
         return self._wrap(_predict_prepared(self.chain, self.sweep, self.prepared.charges))
 
+    @_jit.method
     def noise_image(self) -> Float[Array, "rows cols"]:
         """Only the noise image: each pixel's analytic standard deviation of the radial distance, m
         (:attr:`FrameResult.depth_std_m` of :meth:`predict`), as a program that computes nothing
         else (about 4x faster than :meth:`predict` at 224 x 172, ``bench/bench_frame.py``)."""
         return _noise_image_prepared(self.chain, self.sweep, self.prepared.charges)
 
+    @_jit.method
     def sample(self, key: PRNGKeyArray, frames: int = 1, *, raw: bool = False) -> NoisyFrames:
         """Only the frames: ``frames`` noisy frames' radial distance, amplitude and validity, without
         the per-pixel statistics of :meth:`render` (the frames :meth:`render` keeps for the same key);
@@ -454,6 +467,7 @@ class PreparedFrame(eqx.Module):
         check_counts(frames, frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS)
         return _sample_prepared(self.chain, self.prepared.consts, key, frames, self.shape, raw)
 
+    @_jit.method
     def _wrap(self, result: Result) -> FrameResult:
         # Outside the programs: the geometry and the pattern are passed on, not copied by a program.
         return FrameResult(result, self.radial_true_m, self.direction, self.pattern, self.quality)
@@ -608,7 +622,7 @@ def _sharded(fn, devices: tuple):
 
     try:
         per_fn = _SHARDED.setdefault(fn, {})
-    except TypeError:  # no weak reference or no hash (an equinox Module's bound method): built per call
+    except TypeError:  # no weak reference or no hash (an equinox BoundMethod, a module): built per call
         per_fn = {}
     if devices not in per_fn:
         spec = PartitionSpec("batch")

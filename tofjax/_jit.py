@@ -58,3 +58,25 @@ def traced(tree) -> bool:
     """Whether any leaf of ``tree`` is a tracer: the call runs under ``jit``, ``vmap`` or ``grad``,
     so its values are not concrete (no host loop over them, no padding on the host)."""
     return any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(tree))
+
+
+class method:  # noqa: N801 - used as a decorator, like ``property``
+    """A method of an ``equinox.Module`` bound as a plain Python method.
+
+    Equinox binds every method of a module as a ``BoundMethod``, itself a module, built per access: its
+    construction checks every leaf of the instance, 0.1-0.15 ms for a prepared camera or frame, as much
+    as a third of a 224 x 172 noise image, and the public calls reached three more through their
+    helpers (docs/model.md, "Performance", measurement 19). The price: the bound method is not a
+    pytree (``equinox.filter_jit`` of it sees the instance as a constant, as ``jax.jit`` always does).
+    """
+
+    def __init__(self, fn: Callable):
+        self.__func__ = fn
+        functools.update_wrapper(self, fn)
+
+    def __get__(self, instance, owner=None):
+        # Not a types.MethodType: equinox's __getattribute__ makes every one of those a BoundMethod.
+        return self if instance is None else functools.partial(self.__func__, instance)
+
+    def __call__(self, *args, **kwargs):  # through the class: ``Cls.name(instance, ...)``
+        return self.__func__(*args, **kwargs)
