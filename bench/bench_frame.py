@@ -31,7 +31,8 @@ on both sides, as NumPy's ``NumpyFrame`` always did: a camera streaming a changi
   standard deviation, nothing else); ``noise_image_camera``: of a prepared camera
   (``PreparedCamera.noise_image(returns)``: the exposure and the chain); ``noise_image_depth_map``:
   the same for a depth map of the same plane (one return per pixel, ``camera.returns(depth_map)``);
-  ``noise_image_prepared``: after the exposure (``PreparedFrame.noise_image()``).
+  ``noise_image_prepared``: after the exposure (``PreparedFrame.noise_image()``), one call after another
+  case, and ``noise_image_stream``: 10 such calls in a row (a stream of noise images, caches warm).
 
 Targets (issue 13): 224 x 172 >= 100 frames/s and >= 2x NumPy; 640 x 480 >= 25 frames/s; the
 analytic noise image of 224 x 172 >= 1000 images/s.
@@ -63,6 +64,8 @@ from bench import interleaved, ready  # noqa: E402
 from numpy_baseline import Baseline  # noqa: E402
 
 BATCH = 32
+#: Noise images in a row in the stream case (each timed case otherwise runs once per repeat, caches cold).
+STREAM = 10
 PITCH = 17.5e-6
 
 
@@ -139,6 +142,7 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
         "tofjax_noise_image_camera": lambda i: ready(camera.noise_image(returns)),
         "tofjax_noise_image_depth_map": lambda i: ready(camera.noise_image(depth_map)),
         "tofjax_noise_image_prepared": lambda i: ready(prepared.noise_image()),
+        "tofjax_noise_image_stream": lambda i: [ready(prepared.noise_image()) for _ in range(STREAM)],
         "floor_tofjax_normals": lambda i: ready(floor_jax(jnp.uint32(BATCH * (i + 2)))),
     }
     if with_numpy:
@@ -161,6 +165,7 @@ def case(size: tuple[int, int], repeats: int, with_numpy: bool = True) -> dict:
            "noise_image_camera_per_s": 1 / t["tofjax_noise_image_camera"],
            "noise_image_depth_map_per_s": 1 / t["tofjax_noise_image_depth_map"],
            "noise_image_prepared_per_s": 1 / t["tofjax_noise_image_prepared"],
+           "noise_image_stream_per_s": STREAM / t["tofjax_noise_image_stream"],
            "ratios": {"tofjax_batch/floor_tofjax_normals": t["tofjax_batch"] / t["floor_tofjax_normals"]}}
     if with_numpy:
         out["frames_per_s"].update(numpy_one=1 / t["numpy_one"], numpy_prepared=1 / t["numpy_prepared"],
@@ -199,7 +204,9 @@ def table(r: dict) -> str:
         lines.append(f"{size + ' noise image only, camera too':<50}{c['noise_image_per_s']:>9.0f} images/s")
         lines.append(f"{size + ' noise image only, depth map, camera prepared':<50}"
                      f"{c['noise_image_depth_map_per_s']:>9.0f} images/s")
-        lines.append(f"{size + ' noise image only, exposure prepared':<50}{c['noise_image_prepared_per_s']:>9.0f} images/s")
+        lines.append(f"{size + ' noise image only, exposure prepared':<50}{c['noise_image_prepared_per_s']:>9.0f} images/s"
+                     f"{'':>24}  {target[1]}")
+        lines.append(f"{size + f' the same, {STREAM} in a row (a stream)':<50}{c['noise_image_stream_per_s']:>9.0f} images/s")
         lines.append(f"{size + ' batch / its normals (floor)':<50}{c['ratios']['tofjax_batch/floor_tofjax_normals']:>15.1f}x"
                      + (f"{c['ratios']['numpy_batch/floor_numpy_normals']:>13.1f}x" if 'numpy_batch/floor_numpy_normals'
                         in c['ratios'] else ""))
