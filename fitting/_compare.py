@@ -46,7 +46,7 @@ from tofjax.schema import OPERATING_POINT_COLUMNS, SWEEP_AXES
 from tofjax.sweepfile import BOUND_RELATIONS, bound_column
 
 from ._data import Measurement, read_measurement
-from ._problem import DENSE_POINTS, dense_sweep, hard_observables, nearest_period
+from ._problem import DENSE_POINTS, dense_sweep, hard_observables, nearest_period, under_common_lamp
 
 #: Ratios within this factor of 1 count as agreeing in the summaries (30 %).
 AGREEMENT = 0.3
@@ -150,18 +150,23 @@ class FileComparison:
                 "rms_log_ratio": float(np.sqrt(np.mean(np.log(r[use]) ** 2)))}
 
 
-def _rows_and_dense(m: Measurement, dense: dict[str, np.ndarray]) -> tj.Sweep:
+def _rows_and_dense(m: Measurement, dense: dict[str, np.ndarray], lux_scale: float = 1.0) -> tj.Sweep:
     """The file's rows, then the dense points: one call (which pads them to its bucket, so files of
-    similar length share its program)."""
-    return tj.Sweep.points("distance", **{name: np.concatenate([np.asarray(getattr(m.sweep, name)), dense[name]])
-                                          for name in OPERATING_POINT_COLUMNS})
+    similar length share its program); the illuminance times ``lux_scale`` (:func:`under_common_lamp`)."""
+    def column(name):
+        values = np.concatenate([np.asarray(getattr(m.sweep, name)), dense[name]])
+        return values * lux_scale if name == "illuminance_lx" else values
+
+    return tj.Sweep.points("distance", **{name: column(name) for name in OPERATING_POINT_COLUMNS})
 
 
 def compare_measurement(m: Measurement) -> FileComparison:
-    """The model beside one checked file (module docstring)."""
+    """The model beside one checked file (module docstring); modelled under the common lamp
+    (:func:`fitting._problem.under_common_lamp`: the same photons, one program for every lamp)."""
     dense = dense_sweep(m.sweep, DENSE_POINTS)
-    sweep = _rows_and_dense(m, dense)
-    obs = hard_observables(m.config.params, sweep, tuple(m.frequencies_hz), m.fusion)  # host arrays
+    params, lux_scale = under_common_lamp(m.config.params)
+    sweep = _rows_and_dense(m, dense, lux_scale)
+    obs = hard_observables(params, sweep, tuple(m.frequencies_hz), m.fusion)  # host arrays
     n = m.data.n_rows
 
     def get(name: str, part: str) -> np.ndarray:  # the data rows, or the dense points after them

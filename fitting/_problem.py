@@ -206,6 +206,21 @@ def _lamp_scale(group_params: tj.Params, params: tj.Params, merge_lamps: bool) -
     return k / k0 if k0 > 0.0 and k > 0.0 and np.isfinite(k / k0) else None
 
 
+#: The lamp a comparison models every file under, its illuminance restated in this lamp's lux (as a
+#: group does, module docstring): files of one camera under different lamps share one program.
+COMMON_LAMP = "sunlight"
+
+
+def under_common_lamp(params: tj.Params) -> tuple[tj.Params, float]:
+    """``params`` under :data:`COMMON_LAMP` and the factor that restates lux of their own lamp in lux of
+    that one (``params`` and 1 where the lamps have no ratio: no photons of one of them in the band)."""
+    if params.scene.background == COMMON_LAMP:
+        return params, 1.0
+    common = _under_lamp(params, COMMON_LAMP)
+    scale = _lamp_scale(common, params, merge_lamps=True)
+    return (params, 1.0) if scale is None else (common, scale)
+
+
 def _groups(rows: list[SweepRows], merge_lamps: bool = True) -> tuple[FileGroup, ...]:
     members: list[list[tuple[int, float]]] = []  # per group: (file, lamp scale)
     for i, r in enumerate(rows):

@@ -4,6 +4,7 @@ additions, multi-frequency fusion, datasheet inputs and validity at the solution
 import base64
 import re
 import types
+from pathlib import Path
 
 import jax
 import numpy as np
@@ -313,3 +314,19 @@ def test_compare_checks_a_specifications_bounds_with_their_margins(files, tmp_pa
     assert rows[0] == "file,line,sweep_value,distance_m,bound,relation,bound_value,model_value,met,margin"
     assert len(rows) == 1 + len(d) and sum(r.split(",")[8] == "yes" for r in rows[1:]) == 6
     assert "## Published bounds" in (out / "comparison.md").read_text()
+
+
+def test_a_file_under_another_lamp_is_compared_under_the_common_lamp():
+    """compare models the example's halogen sweep under sunlight at the lux that give the same in-band
+    photons (fitting._problem.under_common_lamp), so files of one camera under different lamps share
+    one compiled program; its model equals the file's own (halogen) model at every row."""
+    examples = Path(ft.__file__).parent / "examples"
+    config = tj.load_config(examples / "camera.toml")
+    m = ft.read_measurement(examples / "illuminance.csv", config)
+    assert m.config.params.scene.background == "halogen"
+    common, scale = ft._problem.under_common_lamp(m.config.params)
+    assert common.scene.background == "sunlight" and abs(scale - 1.0) > 0.1
+    (c,) = compare([examples / "illuminance.csv"], config)
+    own = ft._problem.hard_observables(m.config.params, m.sweep, tuple(m.frequencies_hz), m.fusion)
+    for name in ("amplitude_mean_lsb", "depth_std_m", "amplitude_std_lsb"):
+        np.testing.assert_allclose(c.model[name], np.asarray(getattr(own, name)), rtol=1e-12, atol=0, err_msg=name)
