@@ -202,7 +202,13 @@ def _lamp_scale(group_params: tj.Params, params: tj.Params, merge_lamps: bool) -
         return 1.0 if _same_camera(group_params, params) else None
     if not merge_lamps or not _same_camera(group_params, _under_lamp(params, lamp)):
         return None
-    k0, k = (float(x) for x in _photons_per_lux(group_params, (lamp, own)))
+    return _lamp_ratio(group_params, lamp, own)
+
+
+def _lamp_ratio(params: tj.Params, lamp: str, own: str) -> float | None:
+    """k_own / k_lamp through ``params``' filter and response: lux of ``own`` restated in lux of
+    ``lamp``; ``None`` where either lamp has no photons in the band (no ratio)."""
+    k0, k = (float(x) for x in _photons_per_lux(params, (lamp, own)))
     return k / k0 if k0 > 0.0 and k > 0.0 and np.isfinite(k / k0) else None
 
 
@@ -216,8 +222,8 @@ def under_common_lamp(params: tj.Params) -> tuple[tj.Params, float]:
     that one (``params`` and 1 where the lamps have no ratio: no photons of one of them in the band)."""
     if params.scene.background == COMMON_LAMP:
         return params, 1.0
-    common = _under_lamp(params, COMMON_LAMP)
-    scale = _lamp_scale(common, params, merge_lamps=True)
+    common = _under_lamp(params, COMMON_LAMP)  # the same camera by construction: nothing to compare
+    scale = _lamp_ratio(common, COMMON_LAMP, params.scene.background)
     return (params, 1.0) if scale is None else (common, scale)
 
 
