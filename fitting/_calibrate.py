@@ -22,7 +22,7 @@ from tofjax.schema import SWEEP_AXES, get_leaf, render_toml
 from tofjax.sweepfile import utc_now
 
 from ._compare import FileComparison, compare_measurements, write_comparison
-from ._data import OBSERVABLES, SweepRows, load_rows, read_measurement
+from ._data import OBSERVABLES, SweepRows, load_rows, read_measurement, reason_kind
 from ._least_squares import ConvergenceError, LeastSquaresResult, fit_least_squares
 from ._parameters import CalibrationInputError, make_parameters
 from ._problem import VALID_MARGIN, Problem, batched_curves, build_problem, hard_observables, nearest_period
@@ -353,15 +353,6 @@ def _bands(cal: Calibration):
     return out
 
 
-def _reason_kind(reason: str) -> str:
-    """A row's reason for being left out, without its row's numbers: one legend entry per kind."""
-    if "frames valid" in reason:
-        return "saturated frames"
-    if "--min-snr" in reason:
-        return "amplitude SNR below --min-snr"
-    return reason
-
-
 #: A comparison's dense curve per fitted observable (the depth mean's panel shows the depth error).
 _COMPARE_CURVE = {"amplitude_mean_lsb": "amplitude_mean_lsb", "depth_std_m": "depth_std_m",
                   "depth_mean_m": "depth_error_m"}
@@ -389,7 +380,7 @@ def _figures(cal: Calibration, out: Path, comparisons=()) -> list[Path]:
         period = float(rows.config.params.unambiguity_range_m)
         kinds: dict[str, list[int]] = {}
         for k, why in rows.reasons.items():
-            kinds.setdefault(_reason_kind(why), []).append(k)
+            kinds.setdefault(reason_kind(why), []).append(k)
         for k, (ax, name) in enumerate(zip(axes, OBSERVABLES, strict=True)):
             data = rows.data[name][0]
             if name == "depth_mean_m":  # the systematic error: the reading against the true distance

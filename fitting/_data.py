@@ -176,6 +176,16 @@ def read_measurement(path: str | Path, config: tj.Config) -> Measurement:
     return Measurement(path, data, cols, file_config, sweep, tuple(f_file), fusion)
 
 
+def reason_kind(reason: str) -> str:
+    """A row's reason for being left out (:attr:`SweepRows.reasons`, written in :func:`load_rows`)
+    without its row's numbers: one legend entry per kind in the figures."""
+    if "frames valid" in reason:
+        return "saturated frames"
+    if "--min-snr" in reason:
+        return "amplitude SNR below --min-snr"
+    return reason
+
+
 def load_rows(path: str | Path, config: tj.Config, *, relative_error: float | None = None,
               min_snr: float = 5.0) -> SweepRows:
     """Read one sweep file and prepare its residual rows (see the module docstring)."""

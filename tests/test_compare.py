@@ -180,7 +180,7 @@ def test_calibration_leaves_out_what_the_fitted_model_cannot_measure(files, tmp_
     # One figure per file: the comparisons' reports are tables, the fit figure shows the initial model.
     assert not [n for n in written if n.startswith("compare_") and n.endswith(".png")]
     assert "![" not in (tmp_path / "out" / "compare_initial.md").read_text()
-    assert [ft._calibrate._reason_kind(f"measured amplitude SNR {v} below the limit 5 (--min-snr)") for v in (4.1, 3)] \
+    assert [ft._data.reason_kind(f"measured amplitude SNR {v} below the limit 5 (--min-snr)") for v in (4.1, 3)] \
         == ["amplitude SNR below --min-snr"] * 2
     report = (tmp_path / "out" / "report.md").read_text()
     assert "line 8: the fitted model saturates the pixel here" in report and "lower bound" in report
