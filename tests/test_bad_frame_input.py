@@ -116,6 +116,7 @@ def test_sizes_are_refused_before_any_work_naming_the_cause(tmp_path, capsys, mo
     import tofjax._limits as limits
 
     monkeypatch.setattr(limits, "available_memory_bytes", lambda: 4_000_000_000)
+    monkeypatch.setattr(limits, "device_memory_bytes", lambda: 4 << 30)  # 1 GiB of frames returned
     big = tmp_path / "big.toml"
     big.write_text("[camera]\noptical_area_m = [0.035, 0.035]\n")
     line = _refused(["render", "--scene", "wall", "--config", big, "--out", out], capsys)
@@ -128,7 +129,8 @@ def test_sizes_are_refused_before_any_work_naming_the_cause(tmp_path, capsys, mo
                      "--out", tmp_path / "s.csv"], capsys)
     assert "--samples = 10000000 is out of range: allowed integer 1 <= value <= 1e+06, as scene.samples" in line
     line = _refused(["render", "--scene", "wall", "--keep-frames", "2000", "--frames", "3000", "--out", out], capsys)
-    assert "--keep-frames = 2000 is out of range for 172 x 224 pixels: allowed 0 <= value <= 428" in line
+    assert ("--keep-frames = 2000 is out of range for 172 x 224 pixels: allowed 0 <= value <= 428 (frames returned "
+            "take at most a quarter of this device's 4.3 GB; the statistics use every frame)") in line
     assert not out.exists()
 
 

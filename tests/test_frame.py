@@ -233,7 +233,7 @@ def test_frames_sampled_in_several_chunks_are_the_kept_frames(params, one_ray, m
     from tofjax import _frame
 
     prepared = tj.Camera(params, one_ray).expose(scenes.wall(1.3, 0.9))
-    monkeypatch.setattr(_frame, "FRAME_CHUNK_ELEMENTS", 2 * ROWS * COLS * params.pixel.n_phases)
+    monkeypatch.setattr(_frame, "frame_chunk_elements", lambda: 2 * ROWS * COLS * params.pixel.n_phases)
     sampled = prepared.sample(jax.random.key(1), 5)
     kept = prepared.render(jax.random.key(1), 5, keep_frames=5, raw=True)
     valid = kept.result.valid.transpose(2, 0, 1)

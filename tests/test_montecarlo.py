@@ -256,20 +256,50 @@ def test_memory_is_bounded_for_long_runs():
     assert total < 100e6, total
 
 
-def test_kept_frames_beyond_a_gibibyte_are_refused_before_any_work():
-    """Statistics run in bounded memory for any size; returned frames are refused past 1 GiB with the
-    largest allowed count, and the sweep runner keeps only that many."""
+def test_kept_frames_beyond_a_quarter_of_the_device_memory_are_refused_before_any_work(monkeypatch):
+    """Statistics run in bounded memory for any size; returned frames are refused past a quarter of
+    the device's memory with the largest allowed count, and the sweep runner keeps only that many.
+    Here a device of 4 GiB (1 GiB of frames)."""
+    from tofjax import _limits
     from tofjax._montecarlo import max_keep_frames
 
+    monkeypatch.setattr(_limits, "device_memory_bytes", lambda: 4 << 30)
     most = max_keep_frames(1_000_000, 4)
     assert most == (1 << 30) // (1_000_000 * (8 * 4 + 33)) == 16
     sweep = tj.Sweep.linspace("distance", 0.5, 4.0, 1_000_000)
-    with pytest.raises(ValueError, match=rf"keep_frames = 17 is out of range .* allowed 0 <= value <= {most} "):
+    with pytest.raises(ValueError, match=rf"^keep_frames = 17 is out of range for 1000000 operating points \(1.1 GB of "
+                                         rf"frames\): allowed 0 <= value <= {most} \(frames returned take at most a "
+                                         r"quarter of this device's 4.3 GB\); the statistics use every frame regardless$"):
         tj.simulate(tj.Params(), sweep, jax.random.key(0), 100, keep_frames=17)
     # With their raw phase images (both taps beside the codes) a kept frame takes 64 bytes more per phase.
     assert max_keep_frames(1_000_000, 4, raw=True) == (1 << 30) // (1_000_000 * (3 * 8 * 4 + 33)) == 8
     with pytest.raises(ValueError, match=r"keep_frames = 9 is out of range .* allowed 0 <= value <= 8 "):
         tj.simulate(tj.Params(), sweep, jax.random.key(0), 100, keep_frames=9, raw=True)
+    # A device of 64 GiB keeps 16x as many.
+    monkeypatch.setattr(_limits, "device_memory_bytes", lambda: 64 << 30)
+    assert max_keep_frames(1_000_000, 4) == (16 << 30) // (1_000_000 * (8 * 4 + 33)) == 264
+
+
+def test_device_memory_and_frame_chunks():
+    """The device's memory is what JAX or the machine says (this suite runs on a CPU: its physical
+    memory, within ulimit -v); frames are drawn in chunks of one 640 x 480 frame on a CPU and of an
+    eighth of an accelerator's memory at 256 bytes a phase image, a power of two within bounds."""
+    import os
+    import resource
+
+    from tofjax import _executor, _limits
+
+    physical = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    assert _limits.device_memory_bytes() == max(min(physical, physical if soft == resource.RLIM_INFINITY else soft), 1 << 30)
+    assert _limits.kept_bytes_limit() == _limits.device_memory_bytes() // 4
+    assert _executor.frame_chunk_elements() == _executor.FRAME_CHUNK_ELEMENTS == 1 << 21
+    assert _executor.chunk_elements("cpu", 1 << 40) == 1 << 21
+    # An H100 as JAX reports it (75 % of 80 GB): 60e9 / 256 = 234e6 -> 2^27; an 8 GB card's 6e9 -> 2^24.
+    assert _executor.chunk_elements("gpu", 60_000_000_000) == 1 << 27
+    assert _executor.chunk_elements("gpu", 6_000_000_000) == 1 << 24
+    assert _executor.chunk_elements("gpu", 1 << 20) == 1 << 21  # never below a CPU's chunk
+    assert _executor.chunk_elements("gpu", 1 << 50) == _executor.MAX_CHUNK_ELEMENTS == 1 << 28
 
 
 def test_any_shape_of_operating_points():

@@ -44,6 +44,36 @@ CHUNK_ELEMENTS = 1 << 19
 FRAME_CHUNK_ELEMENTS = 1 << 21
 #: Operating points per block at most (the fast/three-draw path is chosen per block).
 BLOCK_POINTS = 256
+#: On an accelerator a frame's chunk takes as many phase images as fit an eighth of the device's
+#: memory at this many bytes each: ten times what the draw of 32 or 64 frames of 640 x 480 held at its
+#: peak on an H200 (12-24 bytes of temporaries per phase image; the frames returned, 17 bytes per
+#: pixel and frame, are counted apart: :func:`tofjax._limits.kept_bytes_limit`).
+ACCELERATOR_BYTES_PER_ELEMENT = 8 * 32
+#: The largest chunk on any device (2^28 phase images: its indices stay far inside 32 bits).
+MAX_CHUNK_ELEMENTS = 1 << 28
+
+
+def chunk_elements(platform: str, memory_bytes: int) -> int:
+    """Phase images per chunk of a camera frame's Monte Carlo on a device of ``platform`` (JAX's
+    ``"cpu"``, ``"gpu"``, ``"tpu"``) with ``memory_bytes``: :data:`FRAME_CHUNK_ELEMENTS` on a CPU,
+    where one 640 x 480 frame per chunk is fastest; on an accelerator the largest power of two that
+    fits an eighth of its memory at :data:`ACCELERATOR_BYTES_PER_ELEMENT` bytes each, between
+    :data:`FRAME_CHUNK_ELEMENTS` and :data:`MAX_CHUNK_ELEMENTS`: a GPU runs a chunk's phase images in
+    parallel, and chunks of one frame left an H200 3.4x slower per frame than a ``vmap`` over keys
+    (issue 35)."""
+    if platform == "cpu":
+        return FRAME_CHUNK_ELEMENTS
+    fits = max(memory_bytes // ACCELERATOR_BYTES_PER_ELEMENT, 1)
+    return min(max(1 << (fits.bit_length() - 1), FRAME_CHUNK_ELEMENTS), MAX_CHUNK_ELEMENTS)
+
+
+def frame_chunk_elements() -> int:
+    """:func:`chunk_elements` of the default JAX device (its memory from
+    :func:`tofjax._limits.device_memory_bytes`): what :meth:`tofjax.PreparedFrame.render` and
+    ``sample`` draw per chunk."""
+    from ._limits import device_memory_bytes
+
+    return chunk_elements(jax.devices()[0].platform, device_memory_bytes())
 
 
 def equal_parts(total: int, most: int) -> int:

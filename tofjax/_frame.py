@@ -35,7 +35,7 @@ from ._correlation import UNROLLED_RETURNS
 from ._flags import (FLAG_LOW_AMPLITUDE, FLAG_LOW_SIGNAL, FLAG_MIXED, FLAG_NO_RETURN, FLAG_OUTSIDE_ILLUMINATION,
                      FLAG_SATURATED, FLAG_WRAPPED)
 from ._framegeometry import FrameSettings, frame_shape, lens_distortion, pixel_etendue_m2_sr
-from ._executor import FRAME_CHUNK_ELEMENTS, equal_parts, execute, programs
+from ._executor import equal_parts, execute, frame_chunk_elements, programs
 from ._frames import PointCharges, draw_frames
 from ._charges import Exposure, TapCharges
 from ._mixer import phase_drift_periods
@@ -445,7 +445,7 @@ class PreparedFrame(eqx.Module):
         check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS, raw=raw)
         return self._wrap(execute(_render_setup, _render_consts, _render_finish, (self, key, raw, frames),
                                   points=math.prod(self.shape), frames=frames, keep=keep_frames,
-                                  phases=self.chain.n_phases, elements=FRAME_CHUNK_ELEMENTS, progress=progress))
+                                  phases=self.chain.n_phases, elements=frame_chunk_elements(), progress=progress))
 
     @_jit.method
     def predict(self) -> FrameResult:
@@ -565,7 +565,7 @@ def _sample_prepared(chain, source, key, frames, shape, raw=False) -> NoisyFrame
     # PointConstants, or their PointCharges, from which one chunk makes the constants as it draws
     # and several make them once.
     n, words = math.prod(shape), key_words(key)
-    chunk = equal_parts(frames, FRAME_CHUNK_ELEMENTS // (n * chain.n_phases))
+    chunk = equal_parts(frames, frame_chunk_elements() // (n * chain.n_phases))
     n_chunks = -(-frames // chunk)
     to_m = chain.unambiguity_range_m / (2.0 * jnp.pi)
 

@@ -3,6 +3,7 @@ with the limit named, never found out by running out of memory half-way (README,
 
 from __future__ import annotations
 
+import functools
 import os
 import resource
 
@@ -36,6 +37,47 @@ def available_memory_bytes() -> int:
             pass
         limits.append(soft - mapped)
     return max(min(limits), 0) if limits else 1 << 62
+
+
+@functools.cache
+def device_memory_bytes() -> int:
+    """The memory of the default JAX device, once per process: an accelerator's as JAX reports it
+    (``memory_stats()["bytes_limit"]``, what its allocator may take: 75 % of the card by default),
+    a CPU's the machine's physical memory (within ``ulimit -v``). What the frames' chunks
+    (:func:`tofjax._executor.frame_chunk_elements`) and the frames a call returns
+    (:func:`kept_bytes_limit`) are sized by."""
+    import jax
+
+    device = jax.devices()[0]
+    stats = device.memory_stats() if device.platform != "cpu" else None
+    if stats and stats.get("bytes_limit"):
+        return int(stats["bytes_limit"])
+    limits = []
+    try:
+        limits.append(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        pass
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    if soft != resource.RLIM_INFINITY:
+        limits.append(soft)
+    return max(min(limits), 1 << 30) if limits else 1 << 34
+
+
+#: The share of the device's memory the frames one call returns may take (:func:`kept_bytes_limit`).
+KEPT_SHARE = 4
+
+
+def kept_bytes_limit() -> int:
+    """The most memory the frames one call returns may take (``keep_frames`` of a sweep or a frame,
+    :meth:`tofjax.PreparedFrame.sample`'s frames): a quarter of the device's memory
+    (:func:`device_memory_bytes`), so that the chunks that draw them and the caller's own arrays
+    fit beside them."""
+    return device_memory_bytes() // KEPT_SHARE
+
+
+def kept_limit_text() -> str:
+    """The limit of :func:`kept_bytes_limit` in words, for refusals."""
+    return f"frames returned take at most a quarter of this device's {size_text(device_memory_bytes())}"
 
 
 def frame_memory_bytes(pixels: int, subpixel_samples: int, returns_per_pixel: int, patches: int = 0,

@@ -14,6 +14,7 @@ from ._chain import Chain, build_chain
 from ._depth import unwrap_along_sweep
 from . import _jit
 from ._executor import BLOCK_POINTS, CHUNK_ELEMENTS, execute, run_blocks
+from ._limits import kept_bytes_limit, kept_limit_text, size_text
 from ._frames import PointConstants, Sums, draw_frames, frame_statistics, point_constants, reduce_frames
 from ._charges import TapCharges
 from ._params import Params
@@ -25,11 +26,6 @@ from ._smooth import Smooth
 from ._sweep import Sweep, check_inputs
 
 
-#: The most memory the kept frames of one call may take (:func:`simulate`'s ``keep_frames``); the
-#: statistics themselves run in bounded memory for any number of frames.
-MAX_KEPT_BYTES = 1 << 30
-
-
 def kept_bytes_per_frame(n_phases: int, raw: bool = False) -> int:
     """Bytes one kept frame of one operating point takes: its codes (per phase), with ``raw`` both
     taps too (the raw phase images), phase, depth, unwrapped depth and amplitude (float64 each) and
@@ -38,14 +34,16 @@ def kept_bytes_per_frame(n_phases: int, raw: bool = False) -> int:
 
 
 def max_keep_frames(samples: int, n_phases: int, raw: bool = False) -> int:
-    """The most frames per point that fit :data:`MAX_KEPT_BYTES` for ``samples`` operating points."""
-    return MAX_KEPT_BYTES // (max(samples, 1) * kept_bytes_per_frame(n_phases, raw))
+    """The most frames per point that fit :func:`tofjax._limits.kept_bytes_limit` (a quarter of the
+    device's memory) for ``samples`` operating points; the statistics themselves run in bounded
+    memory for any number of frames."""
+    return kept_bytes_limit() // (max(samples, 1) * kept_bytes_per_frame(n_phases, raw))
 
 
 def check_counts(iterations, keep_frames, samples: int = 1, n_phases: int = 4,
                  names: tuple[str, str] = ("iterations", "keep_frames"), raw: bool = False) -> None:
-    """Frames per point (>= 1) and frames to keep (0 .. iterations, and within :data:`MAX_KEPT_BYTES`
-    for ``samples`` points, with ``raw`` their raw phase images), as Python integers; refused before
+    """Frames per point (>= 1) and frames to keep (0 .. iterations, and within
+    :func:`tofjax._limits.kept_bytes_limit` for ``samples`` points, with ``raw`` their raw phase images), as Python integers; refused before
     any work, naming the caller's arguments (``names``: the frame functions say ``frames``)."""
     many, kept = names
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
@@ -55,9 +53,9 @@ def check_counts(iterations, keep_frames, samples: int = 1, n_phases: int = 4,
                          f"{many} = {iterations}")
     most = max_keep_frames(samples, n_phases, raw)
     if keep_frames > most:
-        size = keep_frames * samples * kept_bytes_per_frame(n_phases, raw) / 2**30
-        raise ValueError(f"{kept} = {keep_frames} is out of range for {samples} operating points ({size:.1f} GiB of "
-                         f"frames): allowed 0 <= value <= {most} (1 GiB); the statistics use every frame regardless")
+        size = size_text(keep_frames * samples * kept_bytes_per_frame(n_phases, raw))
+        raise ValueError(f"{kept} = {keep_frames} is out of range for {samples} operating points ({size} of frames): "
+                         f"allowed 0 <= value <= {most} ({kept_limit_text()}); the statistics use every frame regardless")
 
 
 class Prepared(eqx.Module):

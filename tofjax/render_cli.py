@@ -116,6 +116,7 @@ def run(args) -> int:
     config = tj.load_config(args.config) if args.config else tj.Config()
     params, settings = config.params, config.frame
     rows, cols = tj.optics.frame_shape(params)
+    from ._limits import kept_limit_text
     from ._montecarlo import max_keep_frames
 
     if len(config.modulation_frequencies_hz) > 1:
@@ -130,7 +131,7 @@ def run(args) -> int:
     most = max_keep_frames(rows * cols, params.pixel.n_phases, args.raw)
     if args.keep_frames > most:
         raise ValueError(f"--keep-frames = {args.keep_frames} is out of range for {rows} x {cols} pixels: allowed 0 <= "
-                         f"value <= {most} (kept frames take at most 1 GiB; the statistics use every frame)")
+                         f"value <= {most} ({kept_limit_text()}; the statistics use every frame)")
     if args.check:
         if geometry is None:  # validate what the run would read
             load_npz_scene(name, params, settings, npz_bytes)
