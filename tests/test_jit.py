@@ -94,3 +94,30 @@ def test_method_is_bound_without_building_a_module():
     for cls, names in ((PreparedCamera, ("expose", "sample", "noise_image", "predict", "prepare", "render")),
                        (PreparedFrame, ("render", "predict", "noise_image", "sample"))):
         assert all(isinstance(vars(cls)[name], _jit.method) for name in names), cls
+
+
+def test_a_module_is_flattened_once_while_it_lives(monkeypatch):
+    """A module argument is flattened on its first call and looked up by identity afterwards (its
+    arrays are immutable); the entry goes with the module, and a module of tracers is never kept."""
+    import gc
+
+    f, traces = _counted()
+    a = Box(jnp.array([1.0, 2.0]), 3.0)
+    f(a)
+    assert id(a) in _jit._FLAT
+    flattened = []
+    real = jax.tree_util.tree_flatten
+    monkeypatch.setattr(jax.tree_util, "tree_flatten", lambda x, *r, **k: flattened.append(x) or real(x, *r, **k))
+    np.testing.assert_allclose(f(a), [3.0, 12.0], rtol=0, atol=0)
+    assert flattened == [2, 0.0] and len(traces) == 1  # only the arguments that are not modules
+    b = Box(jnp.array([2.0, 3.0]), 3.0)  # another module of the same structure: flattened, same program
+    np.testing.assert_allclose(f(b), [12.0, 27.0], rtol=0, atol=0)
+    assert flattened[2:] == [b, 2, 0.0] and len(traces) == 1
+    monkeypatch.undo()
+    ident = id(b)
+    del b, flattened
+    gc.collect()
+    assert ident not in _jit._FLAT
+    size = len(_jit._FLAT)
+    jax.jit(lambda x: f(Box(x, 3.0)))(jnp.array([1.0, 2.0]))  # inside a caller's jit: a module of tracers
+    assert len(_jit._FLAT) == size
