@@ -7,7 +7,11 @@ The scene is a wall tilted by 30 degrees at 1.2 m, 3 x 3 rays per pixel (9 retur
 returns computed once. The calls' keys are made before the timing (:data:`KEYS`). Cases (per call; "per frame" divides by the frames of the call):
 
 - ``one``: one noisy frame of the exposed scene per call (``camera.expose(returns).sample(key, 1)``);
-- ``one_in_jit``: the same work inside one outer ``jax.jit`` (what one call could cost);
+- ``one_in_jit``: the same work inside one outer ``jax.jit`` that takes the exposure as its argument
+  (what one call could cost: a caller's loop body); ``one_in_jit_closed``: the same with the exposure
+  closed over, its arrays constants of the program (XLA then folds the camera's parameters into it:
+  another program, not the same work); ``one_stream``: ``STREAM`` such calls in a row, per frame (a
+  live view; a single call after other cases runs with the device's caches and clocks as they left it);
 - ``dispatch_floor``: one trivial jitted kernel (``x + 1`` on a scalar): the cost of any call;
 - ``batch``: 32 frames per call (``sample(key, 32)``), per frame; ``batch32_float32`` the same of a
   float32 camera (``camera.astype("float32")``, issue 35 item 4: float64 / float32 printed);
@@ -65,6 +69,8 @@ WALLS = 64
 #: H200, as much as a frame): ``KEYS[i + 1]`` for repeat ``i`` (-1 warms up), ``SPLIT64`` 64 keys each.
 KEYS: list = []
 SPLIT64: list = []
+#: Calls in a row of the ``one_stream`` case (a live view: one frame per call, call after call).
+STREAM = 10
 
 
 def make_keys(repeats: int) -> None:
@@ -83,19 +89,23 @@ def frame_cases(rows: int, cols: int, big_batches: bool) -> tuple[dict, dict]:
     cam = camera_of(rows, cols)
     returns = ready(cam.returns(scenes.tilted_plane(1.2, 30.0)))
     exposed = ready(cam.expose(returns))
-    one_in_jit = jax.jit(lambda k: exposed.sample(k, 1).radial_m)
+    one_in_jit = jax.jit(lambda e, k: e.sample(k, 1).radial_m)
+    one_in_jit_closed = jax.jit(lambda k: exposed.sample(k, 1).radial_m)
     vmap64 = jax.jit(jax.vmap(lambda k: exposed.sample(k, 1).radial_m))
     exposed32 = ready(cam.astype("float32").expose(returns))  # the same scene, frames in float32
     cases = {
         "one": lambda i: ready(exposed.sample(KEYS[i + 1], 1).radial_m),
-        "one_in_jit": lambda i: ready(one_in_jit(KEYS[i + 1])),
+        "one_in_jit": lambda i: ready(one_in_jit(exposed, KEYS[i + 1])),
+        "one_in_jit_closed": lambda i: ready(one_in_jit_closed(KEYS[i + 1])),
+        "one_stream": lambda i: [ready(exposed.sample(KEYS[(i + 1 + j) % len(KEYS)], 1).radial_m) for j in range(STREAM)],
         "batch32": lambda i: ready(exposed.sample(KEYS[i + 1], 32).radial_m),
         "vmap_keys64": lambda i: ready(vmap64(SPLIT64[i + 1])),
         "batch32_float32": lambda i: ready(exposed32.sample(KEYS[i + 1], 32).radial_m),
         "noise_image": lambda i: ready(exposed.noise_image()),
         "noise_image_float32": lambda i: ready(exposed32.noise_image()),
     }
-    per_call = {"one": 1, "one_in_jit": 1, "batch32": 32, "vmap_keys64": 64, "batch32_float32": 32,
+    per_call = {"one": 1, "one_in_jit": 1, "one_in_jit_closed": 1, "one_stream": STREAM, "batch32": 32,
+                "vmap_keys64": 64, "batch32_float32": 32,
                 "noise_image": 1, "noise_image_float32": 1}
     if big_batches:
         cases["batch64"] = lambda i: ready(exposed.sample(KEYS[i + 1], 64).radial_m)
