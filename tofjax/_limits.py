@@ -20,13 +20,9 @@ def available_memory_bytes() -> int:
                     limits.append(int(line.split()[1]) * 1024)
     except OSError:
         pass
-    if not limits:
-        try:
-            limits.append(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
-        except (ValueError, OSError, AttributeError):
-            pass
-    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
-    if soft != resource.RLIM_INFINITY:
+    if not limits and _physical_bytes() is not None:
+        limits.append(_physical_bytes())
+    if _address_space_limit() is not None:
         mapped = 0
         try:
             with open("/proc/self/status", encoding="ascii") as fh:
@@ -35,7 +31,7 @@ def available_memory_bytes() -> int:
                         mapped = int(line.split()[1]) * 1024
         except OSError:
             pass
-        limits.append(soft - mapped)
+        limits.append(_address_space_limit() - mapped)
     return max(min(limits), 0) if limits else 1 << 62
 
 
@@ -43,24 +39,31 @@ def available_memory_bytes() -> int:
 def device_memory_bytes() -> int:
     """The memory of the default JAX device, once per process: an accelerator's as JAX reports it
     (``memory_stats()["bytes_limit"]``, what its allocator may take: 75 % of the card by default),
-    a CPU's the machine's physical memory (within ``ulimit -v``). What the frames' chunks
-    (:func:`tofjax._executor.frame_chunk_elements`) and the frames a call returns
-    (:func:`kept_bytes_limit`) are sized by."""
+    a CPU's the machine's physical memory within ``ulimit -v`` (16 GiB where neither is known).
+    What the frames' chunks (:func:`tofjax._executor.frame_chunk_elements`) and the frames a call
+    returns (:func:`kept_bytes_limit`) are sized by."""
     import jax
 
     device = jax.devices()[0]
     stats = device.memory_stats() if device.platform != "cpu" else None
     if stats and stats.get("bytes_limit"):
         return int(stats["bytes_limit"])
-    limits = []
+    limits = [x for x in (_physical_bytes(), _address_space_limit()) if x is not None]
+    return min(limits) if limits else 1 << 34
+
+
+def _physical_bytes() -> int | None:
+    """The machine's physical memory, or ``None`` where the system does not say."""
     try:
-        limits.append(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
     except (ValueError, OSError, AttributeError):
-        pass
+        return None
+
+
+def _address_space_limit() -> int | None:
+    """This process's address-space limit (``ulimit -v``), or ``None`` where there is none."""
     soft, _ = resource.getrlimit(resource.RLIMIT_AS)
-    if soft != resource.RLIM_INFINITY:
-        limits.append(soft)
-    return max(min(limits), 1 << 30) if limits else 1 << 34
+    return None if soft == resource.RLIM_INFINITY else soft
 
 
 #: The share of the device's memory the frames one call returns may take (:func:`kept_bytes_limit`).
