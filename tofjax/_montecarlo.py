@@ -43,8 +43,9 @@ def max_keep_frames(samples: int, n_phases: int, raw: bool = False) -> int:
 def check_counts(iterations, keep_frames, samples: int = 1, n_phases: int = 4,
                  names: tuple[str, str] = ("iterations", "keep_frames"), raw: bool = False) -> None:
     """Frames per point (>= 1) and frames to keep (0 .. iterations, and within
-    :func:`tofjax._limits.kept_bytes_limit` for ``samples`` points, with ``raw`` their raw phase images), as Python integers; refused before
-    any work, naming the caller's arguments (``names``: the frame functions say ``frames``)."""
+    :func:`tofjax._limits.kept_bytes_limit` for ``samples`` points, with ``raw`` their raw phase
+    images), as Python integers; refused before any work, naming the caller's arguments (``names``:
+    the frame functions say ``frames``)."""
     many, kept = names
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise ValueError(f"{many} = {iterations!r} is out of range: allowed integer >= 1")

@@ -46,8 +46,9 @@ def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int 
               fixed_pattern: bool = False, keep_frames: int = 0, progress: bool = False) -> Run:
     """Run ``sweep`` with ``config``: ``method`` ``"mc"`` or ``"analytic"``; ``iterations`` frames per
     sample (default ``pixel.iterations``); ``seed`` of the Monte Carlo; ``keep_frames``: frames per
-    sample to keep for plots (at most ``iterations``, and at most what fits a quarter of the device's memory for this many samples:
-    :func:`tofjax._montecarlo.max_keep_frames`; the statistics use every frame regardless);
+    sample to keep for plots (at most ``iterations``, and at most what fits a quarter of the device's
+    memory for this many samples: :func:`tofjax._montecarlo.max_keep_frames`; the statistics use
+    every frame regardless);
     ``progress``: the Monte Carlo reports its chunks to :mod:`tofjax.progress`.
 
     Several modulation frequencies (``extra_modulation_frequencies_hz``) are fused as
