@@ -36,7 +36,7 @@ returns computed once. The calls' keys are made before the timing (:data:`KEYS`)
 
 ``--trace DIR`` also writes a Perfetto trace (``jax.profiler``) of three calls each of one frame at
 640 x 480, 32 frames at 640 x 480, the 224 x 172 noise image and the 64 walls' noise images by
-``vmap``: the kernels each runs and their times.
+``vmap``: the kernels each runs and their times (``bench/trace_summary.py`` reads them).
 
 Run:  python bench/bench_device.py [--repeats 5] [--quick] [--chunks] [--trace DIR] [--out bench/results/bench_device.json]
 (``--quick``: 224 x 172 only and fewer repeats; ``XLA_FLAGS=--xla_force_host_platform_device_count=2``
