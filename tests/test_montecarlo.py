@@ -302,6 +302,41 @@ def test_device_memory_and_frame_chunks():
     assert _executor.chunk_elements("gpu", 1 << 50) == _executor.MAX_CHUNK_ELEMENTS == 1 << 28
 
 
+def test_a_gpu_is_sized_by_what_jax_reports_and_a_silent_one_by_the_machine(monkeypatch):
+    """The device's memory from ``memory_stats()["bytes_limit"]`` (an H200 as JAX reported it), and the
+    frames' chunks from it; a device that cannot report its memory is bounded by the machine's."""
+    import os
+    import resource
+
+    from tofjax import _executor, _limits
+
+    class Device:
+        platform = "gpu"
+
+        def __init__(self, stats):
+            self.stats = stats
+
+        def memory_stats(self):
+            if self.stats is None:
+                raise NotImplementedError("memory_stats")
+            return self.stats
+
+    try:
+        monkeypatch.setattr(jax, "devices", lambda: [Device({"bytes_limit": 112_583_507_968})])
+        _limits.device_memory_bytes.cache_clear()
+        assert _limits.device_memory_bytes() == 112_583_507_968
+        assert _executor.frame_chunk_elements() == 1 << 28  # 112.6e9 / 256 = 440e6: the largest chunk
+        monkeypatch.setattr(jax, "devices", lambda: [Device(None)])
+        _limits.device_memory_bytes.cache_clear()
+        physical = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+        assert _limits.device_memory_bytes() == (physical if soft == resource.RLIM_INFINITY else min(physical, soft))
+    finally:
+        monkeypatch.undo()
+        _limits.device_memory_bytes.cache_clear()
+    assert _executor.frame_chunk_elements() == 1 << 21
+
+
 def test_any_shape_of_operating_points():
     """A 2-D image of distances gives 2-D results, point for point those of the flattened sweep."""
     d = np.linspace(0.6, 3.0, 12)
