@@ -4,7 +4,8 @@ ratios printed and written as JSON. Never part of CI: run it by hand, on the CPU
 GPU whenever one is lent.
 
 The scene is a wall tilted by 30 degrees at 1.2 m, 3 x 3 rays per pixel (9 returns per pixel), its
-returns computed once. The calls' keys are made before the timing (:data:`KEYS`). Cases (per call; "per frame" divides by the frames of the call):
+returns computed once. The calls' keys are made before the timing (:data:`KEYS`). Cases (per call;
+"per frame" divides by the frames of the call):
 
 - ``one``: one noisy frame of the exposed scene per call (``camera.expose(returns).sample(key, 1)``);
 - ``one_in_jit``: the same work inside one outer ``jax.jit`` that takes the exposure as its argument
@@ -179,7 +180,7 @@ def chunk_cases(rows: int, cols: int) -> tuple[dict, dict, dict]:
             fn = sampled_in_chunks(exposed, frames, 1 << log2)
             cases[name] = functools.partial(lambda fn, i: ready(fn(exposed, KEYS[i + 1])), fn)
             per_call[name] = frames
-            if log2 < 26:  # the sizes an accelerator's chunks take (2^26 on an H100, 2^27 on an H200)
+            if log2 < 26:  # the large chunks only, near what an accelerator takes (2^27 on an H100, 2^28 on an H200)
                 continue
             try:
                 analysis = fn.lower(exposed, jax.random.key(0)).compile().compiled.memory_analysis()
