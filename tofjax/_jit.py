@@ -72,7 +72,7 @@ def _flatten(x) -> tuple[tuple, tuple]:
     mask = tuple(eqx.is_array(leaf) for leaf in leaves)
     spec = (treedef, mask, tuple(leaf for leaf, m in zip(leaves, mask, strict=True) if not m))
     arrays = tuple(leaf for leaf, m in zip(leaves, mask, strict=True) if m)
-    if isinstance(x, eqx.Module) and not any(isinstance(a, jax.core.Tracer) for a in arrays):
+    if isinstance(x, eqx.Module) and not traced(arrays):
         _FLAT[id(x)] = (weakref.ref(x), spec, arrays)
         weakref.finalize(x, _FLAT.pop, id(x), None)
     return spec, arrays

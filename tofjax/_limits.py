@@ -20,9 +20,10 @@ def available_memory_bytes() -> int:
                     limits.append(int(line.split()[1]) * 1024)
     except OSError:
         pass
-    if not limits and _physical_bytes() is not None:
-        limits.append(_physical_bytes())
-    if _address_space_limit() is not None:
+    physical, address_space = _physical_bytes(), _address_space_limit()
+    if not limits and physical is not None:
+        limits.append(physical)
+    if address_space is not None:
         mapped = 0
         try:
             with open("/proc/self/status", encoding="ascii") as fh:
@@ -31,7 +32,7 @@ def available_memory_bytes() -> int:
                         mapped = int(line.split()[1]) * 1024
         except OSError:
             pass
-        limits.append(_address_space_limit() - mapped)
+        limits.append(address_space - mapped)
     return max(min(limits), 0) if limits else 1 << 62
 
 
