@@ -17,6 +17,7 @@ data's own uncertainties); ``chi2_per_dof`` says whether that is justified.
 
 from __future__ import annotations
 
+import concurrent.futures
 import dataclasses
 import itertools
 
@@ -217,9 +218,9 @@ def _solve(problem: Problem, max_steps: int, rtol: float, atol: float) -> tuple[
     converged: what is left to gain is below 0.001 sigma, and :func:`bound_flags` names the
     parameter at its bound. Each segment is the same compiled program (its step count is static).
     """
-    fn = _residual_function(problem, max_steps)
-    solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
     u = np.asarray(problem.initial_unconstrained())
+    fn = _residual_function(problem, max_steps, first=u)
+    solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
     steps, chi2 = 0, None
     while True:
         sol = optx.least_squares(fn, solver, u, max_steps=min(SEGMENT_STEPS, max_steps - steps), throw=False)
@@ -284,24 +285,39 @@ def _product_note(theta: np.ndarray, cov: np.ndarray, i: int, j: int) -> str:
             f"is known to {100 * product:.2g} %")
 
 
-def _residual_function(problem: Problem, max_steps: int):
+def _residual_function(problem: Problem, max_steps: int, first: np.ndarray | None = None):
     """The residuals of ``problem`` as a function of the unconstrained parameters, for optimistix:
     value and Jacobian from the compiled :func:`fitting._problem.linearize` (a host callback, cached
     per point), with a custom JVP J @ du. Every new point is a step for :mod:`tofjax.progress`
-    (out of ``max_steps``: the time left is an upper bound)."""
+    (out of ``max_steps``: the time left is an upper bound).
+
+    ``first``: the point the solver starts from. Its linearisation starts at once on a thread of its
+    own, so that loading :func:`linearize` from the compilation cache (or compiling it), which
+    releases the interpreter, overlaps preparing the solver's own program, which is compiled in
+    every run (a program with a host callback is never cached; docs/model.md, "Performance",
+    measurement 23). The result is the same; only when it is computed changes."""
     from tofjax.progress import tick
 
+    def linearized(u):
+        # JAX runs callbacks under a default-device context; leave it so the compiled program is
+        # the one the caller uses too (the context is part of the compilation key).
+        with jax.default_device(None):
+            lin = linearize(problem, np.array(u, dtype=np.float64))
+        return np.asarray(lin.residuals), np.asarray(lin.jacobian)
+
     cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+    early: dict[bytes, concurrent.futures.Future] = {}
+    if first is not None:
+        pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="fitting-linearize")
+        early[np.asarray(first, dtype=np.float64).tobytes()] = pool.submit(linearized, first)
+        pool.shutdown(wait=False)  # the thread ends with its one task
 
     def host(u):
         key = np.asarray(u).tobytes()
         if key not in cache:
             cache.clear()
-            # JAX runs callbacks under a default-device context; leave it so the compiled program is
-            # the one the caller uses too (the context is part of the compilation key).
-            with jax.default_device(None):
-                lin = linearize(problem, np.array(u, dtype=np.float64))
-            cache[key] = (np.asarray(lin.residuals), np.asarray(lin.jacobian))
+            future = early.pop(key, None)
+            cache[key] = future.result() if future is not None else linearized(u)
             tick(max_steps)
         return cache[key]
 
