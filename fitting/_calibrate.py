@@ -8,6 +8,7 @@ correlations and diagnostics, PNG figures and a short Markdown report.
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import json
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -170,7 +171,12 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
     rows, parameters = check_inputs(paths, config, fit=fit, bounds=bounds, priors=priors,
                                     relative_error=relative_error, min_snr=min_snr, initial=initial)
     problem = build_problem(parameters, rows, smooth, relative_error, validity=not leave_out_invalid)
-    ls = fit_least_squares(problem, rows, max_steps=max_steps, throw=False)
+
+    def meanwhile():  # what follows the fit: the hard model's program, and matplotlib for the figures
+        invalid_at(problem, problem.initial, rows)
+        importlib.import_module("matplotlib.backends.backend_agg")
+
+    ls = fit_least_squares(problem, rows, max_steps=max_steps, throw=False, meanwhile=meanwhile)
     excluded: list[dict] = []
     unexplained: list[dict] = []
     edge: list[dict] = []

@@ -20,6 +20,7 @@ from __future__ import annotations
 import concurrent.futures
 import dataclasses
 import itertools
+from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
@@ -158,7 +159,7 @@ def _summaries(evaluated, rows) -> list[dict]:
 
 
 def fit_least_squares(problem: Problem, rows, *, max_steps: int = 256, rtol: float = 1e-8, atol: float = 1e-8,
-                      throw: bool = True) -> LeastSquaresResult:
+                      throw: bool = True, meanwhile: Callable[[], object] | None = None) -> LeastSquaresResult:
     """Fit ``problem`` by Levenberg-Marquardt (optimistix) from the configuration's values.
 
     **Arguments:**
@@ -167,12 +168,16 @@ def fit_least_squares(problem: Problem, rows, *, max_steps: int = 256, rtol: flo
     - ``max_steps``, ``rtol``, ``atol``: solver limits and tolerances.
     - ``throw``: raise :class:`ConvergenceError` if the solver did not converge (default); with
       ``False`` the result has ``converged = False`` and is returned for inspection.
+    - ``meanwhile``: work the caller needs after the fit (importing, compiling), done while the
+      first linearisation is loaded or compiled on its own thread (:func:`_residual_function`), when
+      the interpreter is otherwise idle; its result and exceptions are dropped (the caller does the
+      same work again, at no cost or meeting the error where it belongs).
     """
     n_params = problem.n_params
     dof = problem.n_residuals - n_params
     if problem.n_residuals < n_params:
         raise ValueError(f"{problem.n_residuals} residuals cannot determine {n_params} parameters")
-    u, steps, converged, message = _solve(problem, max_steps, rtol, atol)
+    u, steps, converged, message = _solve(problem, max_steps, rtol, atol, meanwhile)
     if not converged and throw:
         raise ConvergenceError(f"least squares did not converge after {steps} steps: {message}")
     lin = jax.device_get(linearize(problem, u))  # the callback's program (a host array in)
@@ -207,7 +212,8 @@ SEGMENT_STEPS = 32
 STALL_CHI2 = 1e-6
 
 
-def _solve(problem: Problem, max_steps: int, rtol: float, atol: float) -> tuple[np.ndarray, int, bool, str]:
+def _solve(problem: Problem, max_steps: int, rtol: float, atol: float,
+           meanwhile: Callable[[], object] | None = None) -> tuple[np.ndarray, int, bool, str]:
     """Levenberg-Marquardt in segments of :data:`SEGMENT_STEPS` steps, each continuing from the last
     one's point: (unconstrained solution, steps, converged, solver message).
 
@@ -219,7 +225,7 @@ def _solve(problem: Problem, max_steps: int, rtol: float, atol: float) -> tuple[
     parameter at its bound. Each segment is the same compiled program (its step count is static).
     """
     u = np.asarray(problem.initial_unconstrained())
-    fn = _residual_function(problem, max_steps, first=u)
+    fn = _residual_function(problem, max_steps, first=u, meanwhile=meanwhile)
     solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
     steps, chi2 = 0, None
     while True:
@@ -285,7 +291,8 @@ def _product_note(theta: np.ndarray, cov: np.ndarray, i: int, j: int) -> str:
             f"is known to {100 * product:.2g} %")
 
 
-def _residual_function(problem: Problem, max_steps: int, first: np.ndarray | None = None):
+def _residual_function(problem: Problem, max_steps: int, first: np.ndarray | None = None,
+                       meanwhile: Callable[[], object] | None = None):
     """The residuals of ``problem`` as a function of the unconstrained parameters, for optimistix:
     value and Jacobian from the compiled :func:`fitting._problem.linearize` (a host callback, cached
     per point), with a custom JVP J @ du. Every new point is a step for :mod:`tofjax.progress`
@@ -295,7 +302,9 @@ def _residual_function(problem: Problem, max_steps: int, first: np.ndarray | Non
     own, so that loading :func:`linearize` from the compilation cache (or compiling it), which
     releases the interpreter, overlaps preparing the solver's own program, which is compiled in
     every run (a program with a host callback is never cached; docs/model.md, "Performance",
-    measurement 23). The result is the same; only when it is computed changes."""
+    measurement 23). The result is the same; only when it is computed changes. ``meanwhile``
+    (:func:`fit_least_squares`) runs when the solver first asks for that point, before it waits for it:
+    by then the thread is loading or compiling, which leaves the interpreter free."""
     from tofjax.progress import tick
 
     def linearized(u):
@@ -317,6 +326,12 @@ def _residual_function(problem: Problem, max_steps: int, first: np.ndarray | Non
         if key not in cache:
             cache.clear()
             future = early.pop(key, None)
+            if future is not None and meanwhile is not None:
+                try:
+                    with jax.default_device(None):  # the caller's programs, not the callback's (above)
+                        meanwhile()
+                except Exception:  # noqa: BLE001 - dropped: the caller repeats the work (docstring)
+                    pass
             cache[key] = future.result() if future is not None else linearized(u)
             tick(max_steps)
         return cache[key]

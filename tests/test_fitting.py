@@ -252,6 +252,22 @@ def test_posterior_backend_resumes(example_fit, tmp_path):
     assert (first.steps, more.steps) == (30, 50)
 
 
+def test_work_meanwhile_runs_once_and_its_errors_change_nothing(example_fit):
+    """``meanwhile`` (work the caller needs after the fit, done while the first linearisation is
+    prepared on its own thread) runs exactly once, and an exception in it is dropped: the fit is the
+    fixture's to the last bit (the same problem from the same start)."""
+    calls = []
+
+    def work():
+        calls.append(1)
+        raise RuntimeError("dropped: the caller repeats this work after the fit")
+
+    ls = ft.fit_least_squares(example_fit.problem, example_fit.rows, max_steps=1000, throw=False, meanwhile=work)
+    assert calls == [1]
+    np.testing.assert_array_equal(ls.estimate, example_fit.least_squares.estimate)
+    assert ls.steps == example_fit.least_squares.steps
+
+
 def test_unconverged_fit_is_never_silent(config):
     cal = ft.calibrate(FILES, config, fit=NAMES, max_steps=2)  # returned for its diagnostics
     assert not cal.least_squares.converged and cal.least_squares.steps == 2
