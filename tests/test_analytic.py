@@ -89,6 +89,30 @@ def test_sbi_keeps_the_pixel_unsaturated_far_beyond_saturation_without_it(backgr
         np.testing.assert_allclose(v - v[0], 0.0, atol=1e-9)
 
 
+def test_tap_voltages_are_the_held_charges_on_the_integration_capacitance():
+    """``tap_a_v``, ``tap_b_v`` and ``differential_v`` (computed on access) are V_reset - n e / C_int
+    of the held electrons (§3.2.4), each result with its own camera's reset voltage and capacitance,
+    also when results are stacked (leading axis: the camera); ``intensity_e`` is their mean."""
+    sweep = tj.Sweep("distance", np.linspace(0.5, 3.0, 5))
+    cams = [(2.8, 20e-15), (3.3, 35e-15)]  # (V_reset, C_diode), C_sample&hold as configured
+    pixels = [tj.Pixel(v_reset_v=v, c_diode_f=c) for v, c in cams]
+    results = [tj.predict(tj.Params(pixel=p), sweep) for p in pixels]
+    stacked = jax.tree_util.tree_map(lambda *x: jnp.stack(x), *results)
+    e = 1.602176634e-19
+    for i, ((v_reset, _), p, r) in enumerate(zip(cams, pixels, results, strict=True)):
+        c_int = float(p.integration_capacitance_f)
+        a, b = np.asarray(r.tap_a_e), np.asarray(r.tap_b_e)
+        want_a, want_b = v_reset - a * e / c_int, v_reset - b * e / c_int
+        for got in (r, jax.tree_util.tree_map(lambda x, i=i: x[i], stacked)):
+            np.testing.assert_allclose(np.asarray(got.tap_a_v), want_a, rtol=1e-12)
+            np.testing.assert_allclose(np.asarray(got.tap_b_v), want_b, rtol=1e-12)
+            np.testing.assert_allclose(np.asarray(got.differential_v), want_b - want_a, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(np.asarray(stacked.tap_b_v)[i], want_b, rtol=1e-12)
+        np.testing.assert_allclose(np.asarray(stacked.intensity_e)[i], (a + b).mean(axis=-1) / 2, rtol=1e-14)
+        np.testing.assert_allclose(np.asarray(stacked.differential_v)[i], want_b - want_a, rtol=1e-9, atol=1e-12)
+    assert np.ptp(np.asarray(results[0].differential_v)) > 0.01  # a real signal, not a constant
+
+
 def test_full_well_fraction_is_the_headroom_to_sbi_and_saturation():
     """full_well_fraction crosses 1 exactly where SBI engages (with SBI) or the pixel saturates
     (without), grows with the background light, and is the same in both paths."""

@@ -56,6 +56,13 @@ def test_unwrap_along_sweep_steps_over_invalid_samples():
     out = np.asarray(_depth.unwrap_along_sweep(jnp.asarray(wrapped), jnp.asarray(valid)))
     np.testing.assert_allclose(out[valid], true[valid], atol=1e-12)
     assert np.all(np.isnan(out[~valid]))
+    # Every sample valid (the fill is skipped): numpy's unwrap; under vmap (both branches) the same.
+    all_valid = np.ones(60, bool)
+    np.testing.assert_allclose(np.asarray(_depth.unwrap_along_sweep(jnp.asarray(wrapped), jnp.asarray(all_valid))),
+                               np.unwrap(wrapped), atol=1e-12)
+    both = jax.vmap(_depth.unwrap_along_sweep)(jnp.asarray([wrapped, wrapped]), jnp.asarray([valid, all_valid]))
+    np.testing.assert_array_equal(np.asarray(both[0]), out)
+    np.testing.assert_allclose(np.asarray(both[1]), true, atol=1e-12)
 
 
 def test_phase_of_zero_has_zero_gradient_not_nan():

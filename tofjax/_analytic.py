@@ -22,8 +22,8 @@ from ._adc import saturated
 from ._chain import Chain, build_chain
 from ._charges import TapCharges
 from ._params import Params
-from ._reduce import max_last, mean_last, min_last
-from ._result import CAVEAT_COARSE_QUANTIZATION, CAVEAT_LOW_SNR, CAVEAT_NEAR_LIMIT, Result, snr_db
+from ._reduce import max_last, min_last
+from ._result import CAVEAT_COARSE_QUANTIZATION, CAVEAT_LOW_SNR, CAVEAT_NEAR_LIMIT, Result
 from ._pattern import PixelPattern, one_pixel
 from ._smooth import Smooth
 from ._stages import Moments
@@ -100,13 +100,12 @@ def analytic(chain: Chain, sweep: Sweep, m: Moments | None = None) -> Result:
     caveats = caveats | jnp.where(v_first > 0.25, CAVEAT_LOW_SNR, 0)
 
     to_m = chain.unambiguity_range_m / (2.0 * jnp.pi)
-    tap_a_v, tap_b_v = chain.tap_volts(held_a, held_b)
     breakdown = noise.breakdown(charges, jnp.sqrt(readout.quantization_variance_lsb2) * readout.lsb_e)
     return Result(
         method="analytic", sweep_variable=sweep.variable, n_frames=0,
         sweep_values=sweep.values, distance_m=d, illuminance_lx=ev, integration_time_s=t, temperature_c=temp,
         unambiguity_range_m=chain.unambiguity_range_m,
-        tap_a_e=held_a, tap_b_e=held_b, tap_a_v=tap_a_v, tap_b_v=tap_b_v, differential_v=tap_b_v - tap_a_v,
+        tap_a_e=held_a, tap_b_e=held_b, **chain.tap_conversion,
         code_mean=code, codes=None, phase_rad=None, depth_m=None, depth_unwrapped_m=None, amplitude_lsb=None,
         valid=None,
         depth_mean_m=_nan_unless(keep, to_m * phase),
@@ -114,8 +113,7 @@ def analytic(chain: Chain, sweep: Sweep, m: Moments | None = None) -> Result:
         depth_std_m=_nan_unless(keep, to_m * _depth.safe_sqrt(var_phase)),
         amplitude_mean_lsb=_nan_unless(keep, amp),
         amplitude_std_lsb=_nan_unless(keep, _depth.safe_sqrt(var_amp)),
-        intensity_e=mean_last(0.5 * (held_a + held_b)),
-        snr_db=snr_db(breakdown), noise=breakdown,
+        noise=breakdown,
         valid_fraction=valid.astype(float), pixel_saturated_fraction=pixel_sat.astype(float),
         adc_saturated_fraction=adc_sat.astype(float),
         sbi_active_fraction=jnp.any(sbi_on, axis=-1).astype(float),

@@ -140,11 +140,11 @@ class Chain(eqx.Module):
         return expose(self.params, self.correlation, distance_m, illuminance_lx, integration_time_s,
                       dark_slopes_v_per_s, self.sample, self.drift, temperature_c)
 
-    def tap_volts(self, held_a: Array, held_b: Array) -> tuple[Array, Array]:
-        """Tap voltages V = V_reset - n e / C_int of held charges."""
-        per_volt = self.readout.electrons_per_volt
-        v_reset = self.params.pixel.v_reset_v
-        return v_reset - held_a / per_volt, v_reset - held_b / per_volt
+    @property
+    def tap_conversion(self) -> dict[str, Array]:
+        """The fields of a :class:`tofjax.Result` that turn its held electrons into tap voltages
+        (``Result.tap_a_v``: V = V_reset - n e / C_int): the reset voltage and C_int / e."""
+        return {"tap_reset_v": self.params.pixel.v_reset_v, "electrons_per_volt": self.readout.electrons_per_volt}
 
 
 def build_chain(params: Params, smooth: Smooth | None = None, points: int | None = None,

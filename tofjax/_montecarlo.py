@@ -20,8 +20,7 @@ from ._charges import TapCharges
 from ._params import Params
 from ._pattern import PixelPattern, one_pixel, pixel_dark_slopes
 from ._random import key_words
-from ._reduce import mean_last
-from ._result import Result, snr_db
+from ._result import Result
 from ._smooth import Smooth
 from ._sweep import Sweep, check_inputs
 
@@ -122,7 +121,6 @@ def assemble(chain: Chain, sweep: Sweep, prepared: Prepared, sums: Sums, kept, i
     to_m = chain.unambiguity_range_m / (2.0 * jnp.pi)
     n_a, n_b = charges.a, charges.b
     held_a, held_b = chain.limit(n_a, n_b)
-    tap_a_v, tap_b_v = chain.tap_volts(held_a, held_b)
     readout = chain.readout
     breakdown = chain.noise.breakdown(charges, jnp.sqrt(readout.quantization_variance_lsb2) * readout.lsb_e)
     if kept is not None:
@@ -137,13 +135,12 @@ def assemble(chain: Chain, sweep: Sweep, prepared: Prepared, sums: Sums, kept, i
         method="mc", sweep_variable=sweep.variable, n_frames=iterations,
         sweep_values=sweep.values, distance_m=d, illuminance_lx=ev, integration_time_s=t, temperature_c=temp,
         unambiguity_range_m=chain.unambiguity_range_m,
-        tap_a_e=held_a, tap_b_e=held_b, tap_a_v=tap_a_v, tap_b_v=tap_b_v, differential_v=tap_b_v - tap_a_v,
+        tap_a_e=held_a, tap_b_e=held_b, **chain.tap_conversion,
         code_mean=points(jnp.moveaxis(sums.codes, 0, -1) / float(iterations)), **frames,
         depth_mean_m=to_m * mean_phase,
         depth_unwrapped_mean_m=to_m * unwrap_if_sweep(jnp.where(has_mean, mean_phase, 0.0), has_mean),
         depth_std_m=to_m * std_phase, amplitude_mean_lsb=points(amp_mean), amplitude_std_lsb=points(amp_std),
-        intensity_e=mean_last(0.5 * (held_a + held_b)),
-        snr_db=snr_db(breakdown), noise=breakdown,
+        noise=breakdown,
         valid_fraction=fraction(sums.valid), pixel_saturated_fraction=fraction(sums.pixel_saturated),
         adc_saturated_fraction=fraction(sums.adc_saturated), sbi_active_fraction=fraction(sums.sbi_engaged),
         full_well_fraction=full_well_fraction(n_a, n_b, chain.limit.full_well_e),

@@ -7,6 +7,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
+from ._reduce import mean_last
+
 #: Bits of :attr:`Result.caveats` (analytic path): where the closed-form statistics are not what
 #: frames would show, and why.
 CAVEAT_NEAR_LIMIT = 1
@@ -80,7 +82,10 @@ class Result(eqx.Module):
     ``phases`` = phase images.
 
     The expected (noise-free) chain: ``tap_a_e``/``tap_b_e`` electrons each tap holds after SBI
-    and saturation, ``tap_a_v``/``tap_b_v`` their voltages, ``differential_v`` = V_B - V_A,
+    and saturation, ``tap_a_v``/``tap_b_v`` their voltages, ``differential_v`` = V_B - V_A (these
+    three are computed on access from the held electrons, the taps' reset voltage ``tap_reset_v``
+    and their conversion ``electrons_per_volt`` = C_int / e, per call; so are ``intensity_e``, the
+    held electrons' mean, and ``snr_db``, from ``noise``),
     ``code_mean`` the expected raw code (Monte Carlo: the mean over all frames). Per frame (Monte
     Carlo with ``keep_frames``, else ``None``): the raw phase images, ``codes`` (the ADC codes of
     the taps' difference) and ``frames_tap_a_e``/``frames_tap_b_e`` (each tap's electrons as read:
@@ -111,11 +116,10 @@ class Result(eqx.Module):
     integration_time_s: Float[Array, "*b"]
     temperature_c: Float[Array, "*b"]
     unambiguity_range_m: Float[Array, ""]
+    tap_reset_v: Float[Array, ""]
+    electrons_per_volt: Float[Array, ""]
     tap_a_e: Float[Array, "*b phases"]
     tap_b_e: Float[Array, "*b phases"]
-    tap_a_v: Float[Array, "*b phases"]
-    tap_b_v: Float[Array, "*b phases"]
-    differential_v: Float[Array, "*b phases"]
     code_mean: Float[Array, "*b phases"]
     codes: Float[Array, "*b frames phases"] | None
     phase_rad: Float[Array, "*b frames"] | None
@@ -128,8 +132,6 @@ class Result(eqx.Module):
     depth_std_m: Float[Array, "*b"]
     amplitude_mean_lsb: Float[Array, "*b"]
     amplitude_std_lsb: Float[Array, "*b"]
-    intensity_e: Float[Array, "*b"]
-    snr_db: Float[Array, "*b"]
     noise: NoiseBreakdown
     valid_fraction: Float[Array, "*b"]
     pixel_saturated_fraction: Float[Array, "*b"]
@@ -140,6 +142,32 @@ class Result(eqx.Module):
     caveats: Int[Array, "*b"] | None = None
     frames_tap_a_e: Float[Array, "*b frames phases"] | None = None
     frames_tap_b_e: Float[Array, "*b frames phases"] | None = None
+
+    @property
+    def tap_a_v(self) -> Float[Array, "*b phases"]:
+        """Tap A's expected voltage, V_A = V_reset - n_A e / C_int (§3.2.4) of its held charge."""
+        return _volts(self, self.tap_a_e)
+
+    @property
+    def tap_b_v(self) -> Float[Array, "*b phases"]:
+        """Tap B's expected voltage, V_B = V_reset - n_B e / C_int."""
+        return _volts(self, self.tap_b_e)
+
+    @property
+    def differential_v(self) -> Float[Array, "*b phases"]:
+        """V_B - V_A = (n_A - n_B) e / C_int, the differential the ADC converts."""
+        return (self.tap_a_e - self.tap_b_e) / _per_call(self.electrons_per_volt, self.tap_a_e)
+
+    @property
+    def intensity_e(self) -> Float[Array, "*b"]:
+        """The expected electrons a tap holds, (n_A + n_B) / 2 averaged over the phase images (the
+        camera's intensity image)."""
+        return 0.5 * mean_last(self.tap_a_e + self.tap_b_e)
+
+    @property
+    def snr_db(self) -> Float[Array, "*b"]:
+        """SNR = 20 log10(n_signal / n_total_noise) (Eq 5.1) of :attr:`noise`."""
+        return snr_db(self.noise)
 
     @property
     def relative_depth_std(self) -> Float[Array, "*b"]:
@@ -157,6 +185,20 @@ class Result(eqx.Module):
             if count:
                 lines.append(f"{count} of {codes.size} points: {text}")
         return lines
+
+
+def _per_call(x: Array, like: Array) -> Array:
+    """A per-call scalar of a result (``tap_reset_v``, ...) against its per-point arrays ``like``: with
+    trailing unit axes, so that a stacked result's leading axes (a ``vmap`` of calls) line up."""
+    x = jnp.asarray(x)
+    return x.reshape(x.shape + (1,) * (jnp.ndim(like) - x.ndim))
+
+
+def _volts(result: Result, held_e: Array) -> Array:
+    """Voltages V = V_reset - n e / C_int of held charges ``held_e`` (computed on access: at 1e5
+    points, three stored per-phase arrays made :func:`tofjax.predict` 2 ms slower; docs/model.md,
+    "Performance", measurement 24)."""
+    return _per_call(result.tap_reset_v, held_e) - held_e / _per_call(result.electrons_per_volt, held_e)
 
 
 def snr_db(noise: NoiseBreakdown) -> Array:
