@@ -200,10 +200,11 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
             problem = build_problem(parameters, rows, smooth, relative_error, validity=False)
             ls = fit_least_squares(problem, rows, max_steps=max_steps, throw=False)
     else:
+        hard = _hard_at(problem, ls.estimate)  # the hard model at the estimate, once for both lists
         unexplained = [{"file": rows[i].path, "line": _line(rows[i], k),
                         "reason": f"{reason}, where the camera measured it"}
-                       for i, k, reason in invalid_at(problem, ls.estimate, rows)]
-        edge = at_limit(problem, ls.estimate, rows)
+                       for i, k, reason in invalid_at(problem, ls.estimate, rows, hard)]
+        edge = at_limit(problem, ls.estimate, rows, hard)
     cal = Calibration(config, rows, problem, ls, None, excluded, unexplained, edge)
     if mcmc and ls.converged:
         cal = cal.with_posterior(walkers=walkers, steps=steps, seed=seed, backend=backend, resume=resume,
@@ -239,32 +240,35 @@ def _used(r: SweepRows) -> np.ndarray:
     return used
 
 
-def _hard_at(problem: Problem, theta, rows: list[SweepRows]):
+def _hard_at(problem: Problem, theta) -> list[tuple]:
     """Per file used by the fit: (file index, its rows' slice of the group, the hard model's
-    observables of its group at ``theta``)."""
+    observables of its group at ``theta``), each group's model evaluated once."""
+    out = []
     for group in problem.groups:
         obs = hard_observables(problem.with_values(group.params, jnp.asarray(theta)), group.model_sweep(dense=False),
                                group.frequencies_hz, group.fusion)  # host arrays
-        for i, bounds in zip(group.files, group.bounds, strict=True):
-            yield i, slice(*bounds), obs
+        out += [(i, slice(*bounds), obs) for i, bounds in zip(group.files, group.bounds, strict=True)]
+    return out
 
 
-def at_limit(problem: Problem, theta, rows: list[SweepRows]) -> list[dict]:
+def at_limit(problem: Problem, theta, rows: list[SweepRows], hard: list[tuple] | None = None) -> list[dict]:
     """Rows used by the fit that the hard model at ``theta`` measures with a headroom below twice the
-    validity margin (:data:`~fitting._problem.VALID_MARGIN`): where the constraint holds the solution."""
+    validity margin (:data:`~fitting._problem.VALID_MARGIN`): where the constraint holds the solution.
+    ``hard``: :func:`_hard_at` of ``theta``, if evaluated."""
     out = []
-    for i, rows_of, obs in _hard_at(problem, theta, rows):
+    for i, rows_of, obs in _hard_at(problem, theta) if hard is None else hard:
         headroom = np.asarray(obs.headroom)[rows_of]
         for k in np.flatnonzero(_used(rows[i]) & (headroom > 0.0) & (headroom < 2 * VALID_MARGIN)):
             out.append({"file": rows[i].path, "line": _line(rows[i], k), "headroom": float(headroom[k])})
     return out
 
 
-def invalid_at(problem: Problem, theta, rows: list[SweepRows]) -> list[tuple[int, int, str]]:
+def invalid_at(problem: Problem, theta, rows: list[SweepRows], hard: list[tuple] | None = None
+               ) -> list[tuple[int, int, str]]:
     """Rows used by the fit that the hard model at ``theta`` cannot measure: (file index, row,
-    reason)."""
+    reason). ``hard``: :func:`_hard_at` of ``theta``, if evaluated."""
     out = []
-    for i, rows_of, obs in _hard_at(problem, theta, rows):
+    for i, rows_of, obs in _hard_at(problem, theta) if hard is None else hard:
         pixel, adc, depth_std, amplitude = (np.asarray(x)[rows_of] for x in (
             obs.pixel_saturated_fraction, obs.adc_saturated_fraction, obs.depth_std_m, obs.amplitude_mean_lsb))
         finite = np.isfinite(depth_std) & np.isfinite(amplitude)
