@@ -29,6 +29,7 @@ import json
 import os
 import platform
 import random
+import resource
 import statistics
 import subprocess
 import sys
@@ -151,10 +152,20 @@ def predict_case(config, baseline: Baseline, samples: int, repeats: int) -> dict
     sweep = config.sweep("distance", samples=samples)
     d = np.asarray(sweep.values)
     lux, t_s = float(params.scene.illuminance_lx), float(params.scene.integration_time_s)
-    cases = {"tofjax_predict": lambda i: ready(tj.predict(params, sweep)),
-             "numpy_expected_charges": lambda i: baseline.expected_charges(d, lux, t_s)}
+    faults = {"tofjax_predict": 0, "numpy_expected_charges": 0}
+
+    def counted(name, fn):  # the minor page faults of each call (fresh pages of freed and new buffers)
+        def call(i):
+            before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+            fn()
+            faults[name] += resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
+        return call
+
+    cases = {"tofjax_predict": counted("tofjax_predict", lambda: ready(tj.predict(params, sweep))),
+             "numpy_expected_charges": counted("numpy_expected_charges", lambda: baseline.expected_charges(d, lux, t_s))}
     t = interleaved(cases, repeats)
     return {"seconds": t, "us_per_sample": {k: v / samples * 1e6 for k, v in t.items()},
+            "page_faults_per_call": {k: v / (repeats + 1) for k, v in faults.items()},
             "ratios": {"tofjax/numpy_expected_charges": t["tofjax_predict"] / t["numpy_expected_charges"]}}
 
 
@@ -242,7 +253,9 @@ def main() -> None:
     results["frame_224x172"] = frame_case(config, baseline, (172, 224), max(args.repeats, 20))
     if not args.quick:
         results["frame_640x480"] = frame_case(config, baseline, (480, 640), args.repeats)
-    results["predict_1e5"] = predict_case(config, baseline, 100_000, args.repeats)
+    # 20 repeats at least: a call's time moves by half with the allocator's state (page faults per
+    # call, reported; docs/model.md, "Performance", measurement 24).
+    results["predict_1e5"] = predict_case(config, baseline, 100_000, max(args.repeats, 20))
     t0 = time.perf_counter()
     ready(tj.predict(config.params, config.sweep("distance", samples=1_000_000)))
     results["predict_1e6"] = {"seconds_first_call": time.perf_counter() - t0}
@@ -279,6 +292,8 @@ def table(r: dict) -> str:
     rows.append(("predict 1e5 vs NumPy expected charges", f"{p['seconds']['tofjax_predict']:.3f} s",
                  f"{p['seconds']['numpy_expected_charges']:.3f} s",
                  f"{1.0 / p['ratios']['tofjax/numpy_expected_charges']:.2f}x", ">= 0.5x"))
+    rows.append(("  page faults per call", f"{p['page_faults_per_call']['tofjax_predict']:.0f}",
+                 f"{p['page_faults_per_call']['numpy_expected_charges']:.0f}", "", ""))
     rows.append(("predict 1e6 (first call)", f"{r['predict_1e6']['seconds_first_call']:.2f} s", "", "", "runs"))
     if "memory_1000x20000" in r:
         m = r["memory_1000x20000"]
