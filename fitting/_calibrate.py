@@ -173,7 +173,7 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
     problem = build_problem(parameters, rows, smooth, relative_error, validity=not leave_out_invalid)
 
     def meanwhile():  # what follows the fit: the hard model's program, and matplotlib for the figures
-        invalid_at(problem, problem.initial, rows)
+        _hard_at(problem, problem.initial)
         importlib.import_module("matplotlib.backends.backend_agg")
 
     ls = fit_least_squares(problem, rows, max_steps=max_steps, throw=False, meanwhile=meanwhile)
