@@ -167,7 +167,7 @@ class Result(eqx.Module):
     @property
     def snr_db(self) -> Float[Array, "*b"]:
         """SNR = 20 log10(n_signal / n_total_noise) (Eq 5.1) of :attr:`noise`."""
-        return snr_db(self.noise)
+        return 20.0 * jnp.log10(self.noise.signal_e / self.noise.total_e)
 
     @property
     def relative_depth_std(self) -> Float[Array, "*b"]:
@@ -200,7 +200,3 @@ def _volts(result: Result, held_e: Array) -> Array:
     "Performance", measurement 24)."""
     return _per_call(result.tap_reset_v, held_e) - held_e / _per_call(result.electrons_per_volt, held_e)
 
-
-def snr_db(noise: NoiseBreakdown) -> Array:
-    """SNR = 20 log10(n_signal / n_total_noise), Eq 5.1."""
-    return 20.0 * jnp.log10(noise.signal_e / noise.total_e)
