@@ -1,6 +1,8 @@
-"""Sweeps of similar length share one compiled program of tj.predict (tofjax._sweep.padded_samples):
-the padded points change nothing of the sweep's own, and a second length in the same bucket
-compiles nothing."""
+"""tj.predict called directly: sweeps of similar length share one compiled program
+(tofjax._sweep.padded_samples): the padded points change nothing of the sweep's own, and a second
+length in the same bucket compiles nothing; a camera's chain is built once (tofjax._chain.kept_chain)."""
+
+import collections
 
 import equinox as eqx
 import jax
@@ -73,3 +75,33 @@ def test_no_padding_under_a_transformation(monkeypatch):
     assert padded == []
     np.testing.assert_allclose(out[0], noise(1.0), rtol=1e-12)
     assert padded == [2]  # called directly: padded
+
+
+def test_a_cameras_chain_is_built_once_and_only_for_that_camera(monkeypatch):
+    """Called directly, predict builds a camera's chain (its correlation table most of it) in a
+    program of its own at the first call and keeps it: the next call with the same parameters
+    builds nothing; another camera gets a chain of its own, the numbers of the chain built inside a
+    caller's jit; and at most KEPT_CHAINS are kept, the least recently used going first."""
+    from tofjax import _chain
+
+    built, build = [], _chain._built
+    monkeypatch.setattr(_chain, "_built", lambda params, *rest: built.append(params) or build(params, *rest))
+    monkeypatch.setattr(_chain, "_KEPT", collections.OrderedDict())
+    sweep = tj.Sweep("distance", DISTANCES)
+    params = tj.Params()
+    first = tj.predict(params, sweep)
+    again = tj.predict(params, sweep)
+    assert [id(p) for p in built] == [id(params)]
+    np.testing.assert_array_equal(again.depth_std_m, first.depth_std_m)
+    narrow = eqx.tree_at(lambda p: p.illumination_waveform.duty_cycle, params, 0.3)  # a table of its own
+    other = tj.predict(narrow, sweep)
+    assert [id(p) for p in built] == [id(params), id(narrow)]
+    in_jit = eqx.filter_jit(tj.predict)(narrow, sweep)  # traced: the program builds the chain itself
+    np.testing.assert_allclose(other.depth_std_m, in_jit.depth_std_m, rtol=1e-12)
+    np.testing.assert_allclose(other.amplitude_mean_lsb, in_jit.amplitude_mean_lsb, rtol=1e-12)
+    assert np.max(np.abs(np.asarray(other.amplitude_mean_lsb) / np.asarray(first.amplitude_mean_lsb) - 1)) > 0.01
+    cameras = [eqx.tree_at(lambda p: p.illumination.peak_power_w, params, float(w)) for w in range(2, 6)]
+    for camera in cameras:
+        tj.predict(camera, sweep)
+    assert len(_chain._KEPT) == _chain.KEPT_CHAINS
+    assert {id(entry[0]) for entry in _chain._KEPT.values()} == {id(c) for c in cameras}

@@ -19,7 +19,7 @@ from jaxtyping import Array
 
 from . import _depth, _executor, _jit
 from ._adc import saturated
-from ._chain import Chain, build_chain
+from ._chain import Chain, build_chain, kept_chain
 from ._charges import TapCharges
 from ._params import Params
 from ._reduce import max_last, min_last
@@ -149,25 +149,29 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None, patte
 
     Called directly, a 1-D sweep runs padded with copies of its last point
     (:func:`tofjax._sweep.padded_samples`), so sweeps of similar length share the compiled programs;
-    the padding is cut from the result. Under a transformation (``jit``, ``vmap``, ``grad``) the
-    sweep runs as it is: the caller's program is compiled for its shapes once anyway.
+    the padding is cut from the result, and the camera's chain (its correlation table) is built at
+    the first call with these ``params`` and kept (:func:`tofjax._chain.kept_chain`). Under a
+    transformation (``jit``, ``vmap``, ``grad``) the sweep runs as it is and the chain is built in
+    the caller's program: that program is compiled for its shapes once anyway.
     """
     check_inputs(params, sweep)
     sample = one_pixel(pattern)
     padded = _executor.padded(sweep, (params, sweep, smooth, sample))
-    chain, charges = _predict_exposure(params, padded, smooth, sample)
+    chain = kept_chain(params, smooth, padded.samples, sample)
+    if chain is None:  # under the caller's transformation: built in its program
+        chain = build_chain(params, smooth, padded.samples, sample)
+    charges = _predict_exposure(chain, padded)
     m = dataclasses.replace(_predict_moments(chain, padded, charges), charges=charges)
     return unpad(_predict_result(chain, padded, m), sweep, padded)
 
 
-# predict runs as three programs, the exposure, the moments and the result: XLA on CPU fuses a
-# producer into each of its consumers, and would evaluate the exposure (and then the moments)
-# once per output of the next stage: 2x slower at 1e5 points. Under an outer jit (calibration, user
-# code) the three are traced into one program as usual.
+# predict runs as three programs, the exposure, the moments and the result (after the kept chain's
+# own, at a camera's first call): XLA on CPU fuses a producer into each of its consumers, and would
+# evaluate the exposure (and then the moments) once per output of the next stage: 2x slower at 1e5
+# points. Under an outer jit (calibration, user code) they are traced into one program as usual.
 @_jit.jit
-def _predict_exposure(params: Params, sweep: Sweep, smooth: Smooth | None, sample=None) -> tuple[Chain, TapCharges]:
-    chain = build_chain(params, smooth, sweep.samples, sample)
-    return chain, chain.expose(*sweep.operating_points(params))
+def _predict_exposure(chain: Chain, sweep: Sweep) -> TapCharges:
+    return chain.expose(*sweep.operating_points(chain.params))
 
 
 #: The moments :func:`analytic` does not read: :func:`predict`'s moments program does not write them

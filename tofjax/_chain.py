@@ -11,7 +11,8 @@ tuple of stages (:mod:`tofjax._stages`) after the exposure.
 
 :func:`build_chain` makes each stage from :class:`tofjax.Params` (and a :class:`tofjax.Smooth` for the
 relaxed limits), including the correlation table the exposure reads: everything that does not depend
-on the operating point is computed here, once per call. :func:`tofjax.predict` folds the moments
+on the operating point is computed here, once per call, or once per camera for the eager calls
+that keep it (:func:`kept_chain`). :func:`tofjax.predict` folds the moments
 through the stages (:mod:`tofjax._analytic`), :func:`tofjax.simulate` draws the noise and the limit
 and folds its frames through the rest (:mod:`tofjax._frames`); both take any batch shape of
 operating points.
@@ -19,10 +20,13 @@ operating points.
 
 from __future__ import annotations
 
+from collections import OrderedDict
+
 import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from . import _jit
 from ._adc import Readout
 from ._correlation import SERIES_POINTS, Correlation, correlation, drift_correlation
 from ._charges import TapCharges
@@ -174,3 +178,40 @@ def build_chain(params: Params, smooth: Smooth | None = None, points: int | None
         drift = drift_correlation(params.illumination_waveform, params.reference_waveform, pixel.n_phases,
                                   tabulate=points is None or points > SERIES_POINTS)
     return Chain(params, table, stages, sample, drift)
+
+
+#: Chains that eager calls built (:func:`kept_chain`), the most recently used last.
+_KEPT: OrderedDict[tuple, tuple] = OrderedDict()
+#: At most this many kept chains (about 2 MB each, the correlation table most of it).
+KEPT_CHAINS = 4
+
+
+def kept_chain(params: Params, smooth: Smooth | None = None, points: int | None = None,
+               sample: PixelPattern | None = None) -> Chain | None:
+    """:func:`build_chain`'s chain, built by a compiled program of its own at the first eager call
+    with these ``params``, ``smooth`` and ``sample`` and kept for the next ones; ``None`` where a
+    leaf is traced (the caller's transformation: its program builds the chain).
+
+    Everything in a chain depends on the camera alone: the correlation table (two FFTs of 16 384
+    points), the waveforms' means, the lamp spectra interpolated to the filter band. Built in every
+    call's own program, it was most of a ``predict`` of a few hundred points and 1 ms of one of
+    1e5 (docs/model.md, "Performance", measurement 25). A module is immutable, so its identity is
+    the key; an entry holds its modules, so no other object takes their identity while it is kept.
+    The :data:`KEPT_CHAINS` most recently used are kept.
+    """
+    if _jit.traced((params, smooth, sample)):
+        return None
+    tabulate = points is None or points > SERIES_POINTS
+    key = (id(params), id(smooth), id(sample), tabulate)
+    hit = _KEPT.get(key)
+    if hit is not None:
+        _KEPT.move_to_end(key)
+        return hit[-1]
+    chain = _built(params, smooth, None if tabulate else 1, sample)  # one program per camera structure
+    _KEPT[key] = (params, smooth, sample, chain)
+    while len(_KEPT) > KEPT_CHAINS:
+        _KEPT.popitem(last=False)
+    return chain
+
+
+_built = _jit.jit(build_chain)
