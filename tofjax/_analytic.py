@@ -20,7 +20,7 @@ from jaxtyping import Array
 from . import _depth, _executor, _jit
 from ._adc import saturated
 from ._chain import Chain, build_chain, kept_chain
-from ._charges import TapCharges
+from ._charges import Exposure, TapCharges
 from ._params import Params
 from ._reduce import max_last, min_last
 from ._result import CAVEAT_COARSE_QUANTIZATION, CAVEAT_LOW_SNR, CAVEAT_NEAR_LIMIT, Result
@@ -160,9 +160,8 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None, patte
     chain = kept_chain(params, smooth, padded.samples, sample)
     if chain is None:  # under the caller's transformation: built in its program
         chain = build_chain(params, smooth, padded.samples, sample)
-    charges = _predict_exposure(chain, padded)
-    m = dataclasses.replace(_predict_moments(chain, padded, charges), charges=charges)
-    return unpad(_predict_result(chain, padded, m), sweep, padded)
+    exposure = _predict_exposure(chain, padded)
+    return unpad(_predict_result(chain, padded, exposure, _predict_moments(chain, padded, exposure)), sweep, padded)
 
 
 # predict runs as three programs, the exposure, the moments and the result (after the kept chain's
@@ -170,13 +169,21 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None, patte
 # evaluate the exposure (and then the moments) once per output of the next stage: 2x slower at 1e5
 # points. Under an outer jit (calibration, user code) they are traced into one program as usual.
 @_jit.jit
-def _predict_exposure(chain: Chain, sweep: Sweep) -> TapCharges:
-    return chain.expose(*sweep.operating_points(chain.params))
+def _predict_exposure(chain: Chain, sweep: Sweep) -> Exposure:
+    return chain.exposure(*sweep.operating_points(chain.params))
+
+
+def _charges(chain: Chain, sweep: Sweep, exposure: Exposure) -> TapCharges:
+    """The taps' charges of the exposure program's ``exposure``, in the program that reads them."""
+    return exposure.charges(sweep.operating_points(chain.params)[3])
 
 
 #: The moments :func:`analytic` does not read: :func:`predict`'s moments program does not write them
-#: (4 of its 12 arrays per phase image), nor the charges it was given (:func:`predict` hands the
-#: exposure's own to the result program: 10 MB fewer written at 1e5 points). The result's copies of its
+#: (4 of its 12 arrays per phase image), nor the charges (the moments and the result programs each
+#: split the exposure program's :class:`~tofjax._charges.Exposure` into the taps' charges, in the
+#: fusions that read them: one array per phase image between the programs, not two, and the table
+#: lookups are not written out for two consumers; docs/model.md, "Performance", measurement 26).
+#: The result's copies of its
 #: inputs stay: a result holding an earlier program's buffers instead (no copies) made ``predict``
 #: of 1e5 points 1.5x slower here, 12 000 page faults per call against 1 700 (docs/model.md,
 #: "Performance", measurement 18).
@@ -184,10 +191,11 @@ _UNREAD = ("diff", "post_a", "post_b", "var_code")
 
 
 @_jit.jit
-def _predict_moments(chain: Chain, sweep: Sweep, charges: TapCharges) -> Moments:
-    return dataclasses.replace(moments(chain, sweep, charges), charges=None, **dict.fromkeys(_UNREAD))
+def _predict_moments(chain: Chain, sweep: Sweep, exposure: Exposure) -> Moments:
+    m = moments(chain, sweep, _charges(chain, sweep, exposure))
+    return dataclasses.replace(m, charges=None, **dict.fromkeys(_UNREAD))
 
 
 @_jit.jit
-def _predict_result(chain: Chain, sweep: Sweep, m: Moments) -> Result:
-    return analytic(chain, sweep, m)
+def _predict_result(chain: Chain, sweep: Sweep, exposure: Exposure, m: Moments) -> Result:
+    return analytic(chain, sweep, dataclasses.replace(m, charges=_charges(chain, sweep, exposure)))

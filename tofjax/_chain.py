@@ -29,7 +29,7 @@ from jaxtyping import Array, Float
 from . import _jit
 from ._adc import Readout
 from ._correlation import SERIES_POINTS, Correlation, correlation, drift_correlation
-from ._charges import TapCharges
+from ._charges import Exposure, TapCharges
 from ._mixer import expose
 from ._depth import Demodulation
 from ._noise import AFTER_LIMIT, BEFORE_LIMIT, NOISE_SOURCES, Noise, NoiseBudget
@@ -136,13 +136,22 @@ class Chain(eqx.Module):
     def unambiguity_range_m(self) -> Array:
         return self.params.unambiguity_range_m
 
+    def exposure(self, distance_m: Float[Array, "*b"], illuminance_lx: Float[Array, "*b"],
+                 integration_time_s: Float[Array, "*b"], temperature_c: Float[Array, "*b"] | None = None,
+                 dark_slopes_v_per_s=None) -> Exposure:
+        """What the pixel collects at the operating points (:func:`tofjax._mixer.expose`; the
+        arguments are :meth:`tofjax.Sweep.operating_points`), of the chain's pixel sample if it has
+        one: :meth:`expose` split into the taps."""
+        return expose(self.params, self.correlation, distance_m, illuminance_lx, integration_time_s,
+                      dark_slopes_v_per_s, self.sample, self.drift, temperature_c)
+
     def expose(self, distance_m: Float[Array, "*b"], illuminance_lx: Float[Array, "*b"],
                integration_time_s: Float[Array, "*b"], temperature_c: Float[Array, "*b"] | None = None,
                dark_slopes_v_per_s=None) -> TapCharges:
-        """Expected tap charges at the operating points (:func:`tofjax._mixer.expose`; the arguments
-        are :meth:`tofjax.Sweep.operating_points`), of the chain's pixel sample if it has one."""
-        return expose(self.params, self.correlation, distance_m, illuminance_lx, integration_time_s,
-                      dark_slopes_v_per_s, self.sample, self.drift, temperature_c)
+        """Expected tap charges at the operating points: the :meth:`exposure`, split into the taps
+        (:meth:`tofjax._charges.Exposure.charges`)."""
+        return self.exposure(distance_m, illuminance_lx, integration_time_s, temperature_c,
+                             dark_slopes_v_per_s).charges(temperature_c)
 
     @property
     def tap_conversion(self) -> dict[str, Array]:

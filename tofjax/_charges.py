@@ -56,11 +56,11 @@ class Exposure(eqx.Module):
     The centre pixel's sweeps (:func:`tofjax._mixer.expose`) and the frames
     (:meth:`tofjax.PreparedCamera.expose`) both make one.
 
-    The frame's programs hand this on rather than the tap charges: both taps read the modulated
-    sum, and XLA on a CPU does not duplicate its table lookups into two consumers; it materialises
-    every return's gathered table row instead (nine 38528 x 16 arrays for 224 x 172 pixels;
-    docs/model.md, "Performance", measurement 10). Materialised once, as this program's output, it
-    is read by both.
+    The frame's programs and ``predict``'s hand this on rather than the tap charges: both taps read
+    the modulated sum, and XLA on a CPU does not duplicate its table lookups into two consumers; it
+    materialises every return's gathered table row instead (nine 38528 x 16 arrays for 224 x 172
+    pixels; docs/model.md, "Performance", measurements 10 and 26). Materialised once, as this
+    program's output, it is read by both.
 
     **Fields** (a frame's shapes): ``modulated_e`` ``(rows, cols, phases)``: K sum_r N_r a_j(delay_r), the modulated
     electrons tap A collects (K the demodulation contrast, N_r the active electrons of return r);

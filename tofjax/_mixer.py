@@ -17,7 +17,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ._charges import Exposure, TapCharges
+from ._charges import Exposure
 from ._correlation import Correlation
 from ._framegeometry import FrameSettings, pixel_etendue_m2_sr
 from ._noise import dark_electrons
@@ -48,8 +48,9 @@ def phase_drift_periods(pixel, temperature_c=None) -> Float[Array, "*b"]:
 def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*b"],
            illuminance_lx: Float[Array, "*b"], integration_time_s: Float[Array, "*b"],
            dark_slopes_v_per_s: tuple[Array, Array] | None = None, sample: PixelPattern | None = None,
-           drift: Correlation | None = None, temperature_c: Float[Array, "*b"] | None = None) -> TapCharges:
-    """Expected tap electrons at every operating point (module docstring).
+           drift: Correlation | None = None, temperature_c: Float[Array, "*b"] | None = None) -> Exposure:
+    """What the pixel collects at every operating point (module docstring), before the taps split it
+    (:meth:`tofjax._charges.Exposure.charges`, with the same ``temperature_c``).
 
     ``temperature_c``: the sensor's temperature at each point (a temperature sweep; ``None``:
     ``pixel.temperature_c``): it sets the dark current, the phase drift, and travels with the charges
@@ -99,4 +100,4 @@ def expose(params: Params, correlation: Correlation, distance_m: Float[Array, "*
         modulated = modulated + contrast * signal_i[..., None] * fractions
         signal = signal + signal_i
     asymmetry = jnp.zeros(()) if sample is None else sample.tap_asymmetry
-    return Exposure(modulated, signal, background, contrast, asymmetry, dark_a, dark_b).charges(temperature_c)
+    return Exposure(modulated, signal, background, contrast, asymmetry, dark_a, dark_b)
