@@ -78,8 +78,8 @@ def test_no_padding_under_a_transformation(monkeypatch):
 
 
 def test_a_cameras_chain_is_built_once_and_only_for_that_camera(monkeypatch):
-    """Called directly, predict builds a camera's chain (its correlation table most of it) in a
-    program of its own at the first call and keeps it: the next call with the same parameters
+    """Called directly, predict and simulate build a camera's chain (its correlation table most of it)
+    in a program of its own at the first call and keep it: the next call with the same parameters
     builds nothing; another camera gets a chain of its own, the numbers of the chain built inside a
     caller's jit; and at most KEPT_CHAINS are kept, the least recently used going first."""
     from tofjax import _chain
@@ -100,6 +100,13 @@ def test_a_cameras_chain_is_built_once_and_only_for_that_camera(monkeypatch):
     np.testing.assert_allclose(other.depth_std_m, in_jit.depth_std_m, rtol=1e-12)
     np.testing.assert_allclose(other.amplitude_mean_lsb, in_jit.amplitude_mean_lsb, rtol=1e-12)
     assert np.max(np.abs(np.asarray(other.amplitude_mean_lsb) / np.asarray(first.amplitude_mean_lsb) - 1)) > 0.01
+    key = jax.random.key(3)  # simulate keeps chains too: the kept one's frames are the traced one's
+    wide = eqx.tree_at(lambda p: p.reference_waveform.duty_cycle, params, 0.6)
+    frames = tj.simulate(wide, sweep, key, 4, keep_frames=4)
+    tj.simulate(wide, sweep, key, 4)
+    assert [id(p) for p in built] == [id(params), id(narrow), id(wide)]
+    np.testing.assert_allclose(frames.codes, eqx.filter_jit(tj.simulate)(wide, sweep, key, 4, keep_frames=4).codes,
+                               rtol=1e-12)
     cameras = [eqx.tree_at(lambda p: p.illumination.peak_power_w, params, float(w)) for w in range(2, 6)]
     for camera in cameras:
         tj.predict(camera, sweep)
