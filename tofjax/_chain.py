@@ -20,6 +20,7 @@ operating points.
 
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
 
 import equinox as eqx
@@ -189,8 +190,10 @@ def build_chain(params: Params, smooth: Smooth | None = None, points: int | None
     return Chain(params, table, stages, sample, drift)
 
 
-#: Chains that eager calls built (:func:`kept_chain`), the most recently used last.
+#: Chains that eager calls built (:func:`kept_chain`), the most recently used last; a run on another
+#: thread (the explorer's, a calibration's) takes the lock to look up, add or evict.
 _KEPT: OrderedDict[tuple, tuple] = OrderedDict()
+_KEPT_LOCK = threading.Lock()
 #: At most this many kept chains (about 2 MB each, the correlation table most of it).
 KEPT_CHAINS = 4
 
@@ -212,14 +215,16 @@ def kept_chain(params: Params, smooth: Smooth | None = None, points: int | None 
         return None
     tabulate = points is None or points > SERIES_POINTS
     key = (id(params), id(smooth), id(sample), tabulate)
-    hit = _KEPT.get(key)
-    if hit is not None:
-        _KEPT.move_to_end(key)
-        return hit[-1]
+    with _KEPT_LOCK:
+        hit = _KEPT.get(key)
+        if hit is not None:
+            _KEPT.move_to_end(key)
+            return hit[-1]
     chain = _built(params, smooth, None if tabulate else 1, sample)  # one program per camera structure
-    _KEPT[key] = (params, smooth, sample, chain)
-    while len(_KEPT) > KEPT_CHAINS:
-        _KEPT.popitem(last=False)
+    with _KEPT_LOCK:
+        _KEPT[key] = (params, smooth, sample, chain)
+        while len(_KEPT) > KEPT_CHAINS:
+            _KEPT.popitem(last=False)
     return chain
 
 
