@@ -183,10 +183,9 @@ def _charges(chain: Chain, sweep: Sweep, exposure: Exposure) -> TapCharges:
 #: split the exposure program's :class:`~tofjax._charges.Exposure` into the taps' charges, in the
 #: fusions that read them: one array per phase image between the programs, not two, and the table
 #: lookups are not written out for two consumers; docs/model.md, "Performance", measurement 26).
-#: The result's copies of its
-#: inputs stay: a result holding an earlier program's buffers instead (no copies) made ``predict``
-#: of 1e5 points 1.5x slower here, 12 000 page faults per call against 1 700 (docs/model.md,
-#: "Performance", measurement 18).
+#: The result's copies of its inputs stay: a result holding an earlier program's buffers instead
+#: (no copies) made ``predict`` of 1e5 points 1.5x slower here, 12 000 page faults per call against
+#: 1 700 (docs/model.md, "Performance", measurement 18).
 _UNREAD = ("diff", "post_a", "post_b", "var_code")
 
 

@@ -142,7 +142,7 @@ class Chain(eqx.Module):
                  dark_slopes_v_per_s=None) -> Exposure:
         """What the pixel collects at the operating points (:func:`tofjax._mixer.expose`; the
         arguments are :meth:`tofjax.Sweep.operating_points`), of the chain's pixel sample if it has
-        one: :meth:`expose` split into the taps."""
+        one, before the taps split it (:meth:`expose`)."""
         return expose(self.params, self.correlation, distance_m, illuminance_lx, integration_time_s,
                       dark_slopes_v_per_s, self.sample, self.drift, temperature_c)
 
