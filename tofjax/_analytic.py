@@ -19,7 +19,7 @@ from jaxtyping import Array
 
 from . import _depth, _executor, _jit
 from ._adc import saturated
-from ._chain import Chain, build_chain, kept_chain
+from ._chain import Chain, kept_chain
 from ._charges import Exposure, TapCharges
 from ._params import Params
 from ._reduce import max_last, min_last
@@ -158,8 +158,6 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None, patte
     sample = one_pixel(pattern)
     padded = _executor.padded(sweep, (params, sweep, smooth, sample))
     chain = kept_chain(params, smooth, padded.samples, sample)
-    if chain is None:  # under the caller's transformation: built in its program
-        chain = build_chain(params, smooth, padded.samples, sample)
     exposure = _predict_exposure(chain, padded)
     return unpad(_predict_result(chain, padded, exposure, _predict_moments(chain, padded, exposure)), sweep, padded)
 

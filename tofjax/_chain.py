@@ -199,10 +199,10 @@ KEPT_CHAINS = 4
 
 
 def kept_chain(params: Params, smooth: Smooth | None = None, points: int | None = None,
-               sample: PixelPattern | None = None) -> Chain | None:
+               sample: PixelPattern | None = None) -> Chain:
     """:func:`build_chain`'s chain, built by a compiled program of its own at the first eager call
-    with these ``params``, ``smooth`` and ``sample`` and kept for the next ones; ``None`` where a
-    leaf is traced (the caller's transformation: its program builds the chain).
+    with these ``params``, ``smooth`` and ``sample`` and kept for the next ones. Where a leaf is
+    traced (a caller's transformation) it is built in the caller's program and nothing is kept.
 
     Everything in a chain depends on the camera alone: the correlation table (two FFTs of 16 384
     points), the waveforms' means, the lamp spectra interpolated to the filter band. Built in every
@@ -212,7 +212,7 @@ def kept_chain(params: Params, smooth: Smooth | None = None, points: int | None 
     The :data:`KEPT_CHAINS` most recently used are kept.
     """
     if _jit.traced((params, smooth, sample)):
-        return None
+        return build_chain(params, smooth, points, sample)
     tabulate = points is None or points > SERIES_POINTS
     key = (id(params), id(smooth), id(sample), tabulate)
     with _KEPT_LOCK:

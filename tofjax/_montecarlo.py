@@ -10,7 +10,7 @@ import jax.random as jr
 from jaxtyping import Array, PRNGKeyArray
 
 from ._analytic import full_well_fraction, headroom, unwrap_if_sweep
-from ._chain import Chain, build_chain, kept_chain
+from ._chain import Chain, kept_chain
 from ._depth import unwrap_along_sweep
 from . import _jit
 from ._executor import BLOCK_POINTS, CHUNK_ELEMENTS, execute, run_blocks
@@ -208,26 +208,20 @@ def simulate(
     if fixed_pattern and sample is not None:
         raise ValueError("give fixed_pattern or pattern, not both: fixed_pattern draws the taps' dark slopes from the "
                          "key, pattern is the pixel's whole sample")
-    chain = kept_chain(params, smooth, sweep.samples, sample)  # None under a transformation: built in its program
+    chain = kept_chain(params, smooth, sweep.samples, sample)
     return execute(_setup, _consts, _finish, (params, sweep, key, smooth, fixed_pattern, sample, raw, iterations, chain),
                    points=sweep.samples, frames=iterations, keep=keep_frames, phases=params.pixel.n_phases,
                    progress=progress)
 
 
-def _run_inputs(params, sweep, key, smooth, fixed_pattern, sample=None, chain=None):
-    """The run's chain (of the pixel ``sample``, if given; ``chain``: built already,
-    :func:`tofjax._chain.kept_chain`), its frames' key and the taps' dark slopes of ``fixed_pattern``
-    (``None``: the mean pixel's, or the sample's)."""
-    pattern_key, key = jr.split(key)
-    slopes = pixel_dark_slopes(params, pattern_key) if fixed_pattern else None
-    return build_chain(params, smooth, sweep.samples, sample) if chain is None else chain, key, slopes
-
-
 @_jit.jit
 def _setup(params, sweep, key, smooth, fixed_pattern, sample, raw, iterations, chain):
-    """:func:`simulate`'s run (:func:`tofjax._executor.execute`): the chain and the expected charges
-    and frames' constants (carried to :func:`_finish`), and the chunk step."""
-    chain, key, slopes = _run_inputs(params, sweep, key, smooth, fixed_pattern, sample, chain)
+    """:func:`simulate`'s run (:func:`tofjax._executor.execute`) with the camera's ``chain``
+    (:func:`tofjax._chain.kept_chain`): the chain and the expected charges and frames' constants
+    (carried to :func:`_finish`), and the chunk step; ``fixed_pattern``: the taps' dark slopes drawn
+    from the key (else the mean pixel's, or the sample's)."""
+    pattern_key, key = jr.split(key)
+    slopes = pixel_dark_slopes(params, pattern_key) if fixed_pattern else None
     return (chain, prepare(chain, sweep, slopes)), frames_step(chain, key_words(key), raw=raw)
 
 

@@ -199,4 +199,3 @@ def _volts(result: Result, held_e: Array) -> Array:
     points, three stored per-phase arrays made :func:`tofjax.predict` 2 ms slower; docs/model.md,
     "Performance", measurement 24)."""
     return _per_call(result.tap_reset_v, held_e) - held_e / _per_call(result.electrons_per_volt, held_e)
-
