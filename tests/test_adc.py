@@ -7,6 +7,7 @@ import pytest
 
 import tofjax
 from tofjax import _adc
+from tofjax._stages import Samples
 
 IDEAL = tofjax.ADC(offset_error_lsb=0.0, gain_error_percent_fsr=0.0, integral_nonlinearity_lsb=0.0,
                    differential_nonlinearity_lsb=0.0)
@@ -93,6 +94,34 @@ def test_disabled_adc_is_the_ideal_continuous_readout():
     u = _adc.code_position(adc, v)
     np.testing.assert_allclose(_adc.quantize(adc, u), 2048 + v / (1.6 / 4096))
     assert not np.any(_adc.saturated(adc, u))
+
+
+@pytest.mark.parametrize("dnl", [0.0, 0.8, 0.999])
+def test_the_hard_codes_are_at_a_rail_exactly_where_the_code_positions_saturate(dnl):
+    """The Monte Carlo reads the ADC's flags from its codes (``Readout.saturated_codes``): the hard
+    quantiser's code is 0 or the top code exactly where :func:`saturated` finds u outside the first
+    and last edges, for any DNL below 1 LSB (the largest allowed, 0.999, moves an edge by almost 1/2).
+    A 6-bit ADC puts many DNL patterns' edges near both rails; u densely around both ends, on the two
+    edges and just below them, through the readout stage (phase images on the first axis)."""
+    adc = tofjax.ADC(resolution_bits=6, offset_error_lsb=0.3, integral_nonlinearity_lsb=1.5,
+                     differential_nonlinearity_lsb=dnl)
+    top = _adc.max_code(adc)
+    edges = np.asarray([_adc._edge(adc, jnp.asarray(c)) for c in (1.0, top)])
+    u = jnp.asarray(np.concatenate([np.linspace(-3.0, 4.0, 7001), np.linspace(top - 4.0, top + 3.0, 7001),
+                                    edges, np.nextafter(edges, -np.inf)]))
+    codes = _adc.quantize(adc, u)
+    expected = np.asarray(_adc.saturated(adc, u))
+    np.testing.assert_array_equal(_adc.saturated_code(adc, codes), expected)
+    assert 0 < expected.sum() < expected.size and set(np.asarray(codes)[expected]) == {0.0, top}
+    # The stage, per frame over 4 phase images: its flags from the codes equal those from u.
+    readout = _adc.Readout(adc, 1.0 / adc.lsb_v)
+    assert readout.codes_show_saturation and not _adc.Readout(adc, 1.0 / adc.lsb_v, jnp.asarray(0.3)).codes_show_saturation
+    diff = jnp.asarray(np.random.default_rng(2).uniform(-36.0, 36.0, (4, 5000)))  # in LSB: past both rails
+    frames = readout.sample(Samples(diff))
+    assert 0 < int(frames.adc_saturated.sum()) < 5000
+    np.testing.assert_array_equal(readout.saturated_codes(frames.codes), frames.adc_saturated)
+    off = tofjax.ADC(enabled=False)
+    assert not np.any(_adc.saturated_code(off, _adc.quantize(off, u)))
 
 
 @pytest.mark.parametrize("dnl", [0.0, 0.4, 0.8])

@@ -205,7 +205,8 @@ def test_raw_taps_are_the_held_charges_plus_their_noise_and_digitise_to_the_code
     on it (before and after the limit); at 0.3 m SBI always holds the fuller tap of each phase image
     at the full well, so it reads N_sat with only the noise after the limit, and the other
     N_sat - |n_A - n_B| with the difference's noise before the limit and its own after it. Their difference digitises to the
-    frames' codes exactly, and the frames themselves do not change when the taps are asked for."""
+    frames' codes exactly, its code positions give the frames' ADC flags, and the frames themselves do
+    not change when the taps are asked for."""
     p = tj.Params()
     chain = build_chain(p)
     sweep = tj.Sweep("distance", [0.3, 1.2])
@@ -243,6 +244,14 @@ def test_raw_taps_are_the_held_charges_plus_their_noise_and_digitise_to_the_code
     np.testing.assert_array_equal(kept.codes, plain.codes)
     difference = kept.frames_tap_a_e - kept.frames_tap_b_e
     np.testing.assert_array_equal(chain.readout.quantize(chain.readout.position(difference)), kept.codes)
+    # The frames' ADC flags (the draw reads them from the hard codes) against the code positions of the
+    # taps' difference, not the codes: where the largest phase image reaches the top rail, some frames
+    # of each point saturate and some do not (the same program as above).
+    rail = tj.simulate(p, tj.Sweep("distance", [0.3065, 0.3075]), jax.random.key(5), 16, keep_frames=16, raw=True)
+    u = chain.readout.position(rail.frames_tap_a_e - rail.frames_tap_b_e)
+    flags = np.any(np.asarray(chain.readout.saturated(u)), axis=-1)  # (points, frames)
+    assert 0 < flags.sum() < flags.size
+    np.testing.assert_allclose(rail.adc_saturated_fraction, flags.mean(axis=-1), rtol=1e-12)
 
 
 def test_memory_is_bounded_for_long_runs():

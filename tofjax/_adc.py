@@ -114,6 +114,17 @@ def saturated(adc: ADC, u: Float[Array, "*b"]) -> Bool[Array, "*b"]:
     return (u < _edge(adc, jnp.asarray(1.0))) | (u >= _edge(adc, jnp.asarray(max_code(adc))))
 
 
+def saturated_code(adc: ADC, codes: Float[Array, "*b"]) -> Bool[Array, "*b"]:
+    """:func:`saturated` read from the hard quantiser's codes (:func:`quantize` without a temperature):
+    a code is 0 exactly where u lies below the first edge, and the top code exactly where u reaches
+    the last, because every edge E_c lies within 1/2 LSB of c - 1/2 (the DNL, below 1 LSB, moves it by
+    at most half of it): u below E_1 < 1 floors to 0 or below, and u at or above E_top > top - 1 to
+    top - 1 or above. Not for the smooth mode's blurred codes."""
+    if not adc.enabled:
+        return jnp.zeros(jnp.shape(codes), dtype=bool)
+    return (codes <= 0.0) | (codes >= max_code(adc))
+
+
 def headroom(adc: ADC, u: Float[Array, "*b"]) -> Float[Array, "*b"]:
     """The distance, in LSB, from code position ``u`` to the nearer end of the range (:func:`saturated`
     below 0), ``inf`` without an ADC."""
@@ -191,6 +202,18 @@ class Readout(AbstractStage):
     def sample(self, s: Samples) -> Samples:
         u = self.position(s.diff)
         return replace(s, u=u, codes=self.quantize(u), adc_saturated=jnp.any(self.saturated(u), axis=0))
+
+    @property
+    def codes_show_saturation(self) -> bool:
+        """Whether frames' codes alone say where the ADC saturated (the hard quantiser:
+        :func:`saturated_code`), so that a draw can hand on its codes instead of its differential."""
+        return self.temperature_lsb is None
+
+    def saturated_codes(self, codes: Array) -> Array:
+        """Per frame, whether any phase image's code (phase axis first) is at a rail: what
+        :meth:`sample` finds from the code positions, read from the hard quantiser's codes
+        (:attr:`codes_show_saturation`)."""
+        return jnp.any(saturated_code(self.adc, codes), axis=0)
 
     @property
     def mid_code(self) -> float:

@@ -102,11 +102,15 @@ class Chain(eqx.Module):
         path, :mod:`tofjax._analytic`)."""
         return fold_moments(self.stages, Moments.of(charges))
 
+    @property
+    def _readout_at(self) -> int:
+        """The readout stage's place in :attr:`stages`."""
+        return next(i for i, s in enumerate(self.stages) if isinstance(s, Readout))
+
     def readout_moments(self, charges: TapCharges) -> Moments:
         """The moments through the stages up to the readout (its code position ``u`` among them), without
         the demodulation's: what a limit's headroom needs (:func:`tofjax._analytic.headroom`)."""
-        last = next(i for i, s in enumerate(self.stages) if isinstance(s, Readout))
-        return fold_moments(self.stages[:last + 1], Moments.of(charges))
+        return fold_moments(self.stages[:self._readout_at + 1], Moments.of(charges))
 
     def drawn_moments(self, charges: TapCharges) -> Moments:
         """The moments through the stages the Monte Carlo draws (up to the last noise source): the
@@ -122,6 +126,18 @@ class Chain(eqx.Module):
         """Frames of the drawn differential ``diff`` (phase axis first) through the stages after the
         last noise source: codes, ADC flags, phase and amplitude (the Monte Carlo)."""
         return fold_samples(self.stages[self._drawn:], Samples(diff))
+
+    def codes(self, diff: Array) -> Array:
+        """The codes of the drawn differential ``diff`` (phase axis first): :meth:`samples` up to the
+        readout, its codes only."""
+        return fold_samples(self.stages[self._drawn:self._readout_at + 1], Samples(diff)).codes
+
+    def samples_of_codes(self, codes: Array) -> Samples:
+        """:meth:`samples` from the frames' :meth:`codes` of a hard readout
+        (:attr:`~tofjax._adc.Readout.codes_show_saturation`): the ADC's flags read from the codes,
+        then the stages after the readout (phase and amplitude)."""
+        s = Samples(None, codes=codes, adc_saturated=self.readout.saturated_codes(codes))
+        return fold_samples(self.stages[self._readout_at + 1:], s)
 
     @property
     def n_phases(self) -> int:

@@ -215,10 +215,24 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
         return tuple(jnp.where(per_point(linear) if x.ndim == 2 else per_point(linear)[None], a, x)
                      for a, x in zip(fast, full, strict=True))
 
+    # With the hard ADC the draw hands on the frames' codes, not their differential: the readout (the
+    # ADC's transfer with its INL and DNL, every phase image) is then evaluated once, inside the branch,
+    # where every consumer of the branch's differential (phase, amplitude, the ADC's flags, each sum)
+    # evaluated it again; the ADC's flags are read from the codes (docs/model.md, "Performance",
+    # measurement 28). The smooth ADC's blurred codes do not show its rails: it hands on the differential.
+    coded = chain.readout.codes_show_saturation
+    handed_on = chain.codes if coded else (lambda d: d)
+
+    def writing(draw):
+        def branch(src):
+            out = draw(src)
+            return (handed_on(out[0]), *out[1:])
+        return branch
+
     tap_a = tap_b = None
     if chain.noise.enabled:
-        drawn = lax.cond(jnp.all(linear), one_draw, each_its_own, source)
-        diff, pixel_sat, sbi_on = drawn[:3]
+        drawn = lax.cond(jnp.all(linear), writing(one_draw), writing(each_its_own), source)
+        node, pixel_sat, sbi_on = drawn[:3]
         if taps:
             tap_a, tap_b = drawn[3:]
     else:
@@ -226,14 +240,15 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
         held_a, held_b = limit(col(c.n_a), col(c.n_b))
         n_points = c.index.shape[0]
         full_shape = (n_phases, n_frames, n_points) if frames_first else (n_phases, n_points, n_frames)
-        diff = jnp.broadcast_to(held_a - held_b, full_shape)
+        node = handed_on(jnp.broadcast_to(held_a - held_b, full_shape))
         if taps:
             tap_a, tap_b = jnp.broadcast_to(held_a, full_shape), jnp.broadcast_to(held_b, full_shape)
         saturated, engaged = limit.flags(col(c.n_a), col(c.n_b))
-        shape = diff.shape[1:]
+        shape = full_shape[1:]
         pixel_sat = jnp.broadcast_to(jnp.any(saturated, axis=0), shape)
         sbi_on = jnp.broadcast_to(jnp.any(engaged, axis=0), shape)
-    frames = chain.samples(diff)  # the stages after the noise: codes, phase, amplitude
+    # The stages after the noise: codes, phase, amplitude.
+    frames = chain.samples_of_codes(node) if coded else chain.samples(node)
     return FrameBatch(frames.codes, frames.phase, frames.amplitude, pixel_sat, frames.adc_saturated, sbi_on,
                       tap_a, tap_b)
 

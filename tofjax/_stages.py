@@ -77,11 +77,12 @@ class Samples(eqx.Module):
     points' axes as the draw lays them out (points and frames, either order); a field is ``None``
     until the stage that makes it.
 
-    **Fields:** ``diff`` (the differential A - B, e-), ``u`` and ``codes`` (code position and codes),
+    **Fields:** ``diff`` (the differential A - B, e-; ``None`` for frames that start at their codes,
+    :meth:`tofjax.chain.Chain.samples_of_codes`), ``u`` and ``codes`` (code position and codes),
     ``adc_saturated`` (``(*points)``), ``phase`` (arg Z in (-pi, pi]) and ``amplitude`` (``(*points)``).
     """
 
-    diff: Array
+    diff: Array | None
     u: Array | None = None
     codes: Array | None = None
     adc_saturated: Array | None = None
