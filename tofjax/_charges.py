@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import equinox as eqx
 import jax.numpy as jnp
+from jax import lax
 from jaxtyping import Array, Float
 
 
@@ -49,6 +50,16 @@ class TapCharges(eqx.Module):
         return self
 
 
+def written_out(x: Float[Array, "*b n"]) -> Float[Array, "*b n"]:
+    """``x`` (its last axis short), written to memory inside a larger program: its product with the
+    identity, exact for finite values. XLA on a CPU does not fuse a dot into its consumers, and it
+    removes ``lax.optimization_barrier`` before fusion. Both taps, and inside one program every
+    consumer of theirs, read the exposure's modulated sum; XLA otherwise evaluated its table lookups
+    once per consumer, or wrote out every point's gathered table rows (docs/model.md, "Performance",
+    measurements 14 and 29)."""
+    return jnp.einsum("...j,jk->...k", x, jnp.eye(x.shape[-1], dtype=x.dtype), precision=lax.Precision.HIGHEST)
+
+
 class Exposure(eqx.Module):
     """What a pixel collected in each phase image, before the taps split it (Eqs 3.19-3.21), for any
     batch of pixels or operating points (a frame: ``(rows, cols)`` leading axes; a sweep: its
@@ -75,6 +86,11 @@ class Exposure(eqx.Module):
     tap_asymmetry: Float[Array, "rows cols"] | Float[Array, ""]
     dark_a_e: Float[Array, "rows cols"]
     dark_b_e: Float[Array, "rows cols"]
+
+    def written_out(self) -> Exposure:
+        """The exposure with its modulated sum written out (:func:`written_out`), for a program that
+        reads its charges in many places."""
+        return eqx.tree_at(lambda e: e.modulated_e, self, written_out(self.modulated_e))
 
     def charges(self, temperature_c: Float[Array, "*b"] | None = None) -> TapCharges:
         """The taps' expected electrons (``temperature_c``: the sensor's, per point, for

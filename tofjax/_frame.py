@@ -25,7 +25,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax import lax
 from jaxtyping import Array, Float, PRNGKeyArray
 
 from . import _jit
@@ -37,7 +36,7 @@ from ._flags import (FLAG_LOW_AMPLITUDE, FLAG_LOW_SIGNAL, FLAG_MIXED, FLAG_NO_RE
 from ._framegeometry import FrameSettings, frame_shape, lens_distortion, pixel_etendue_m2_sr
 from ._executor import equal_parts, execute, frame_chunk_elements, programs
 from ._frames import PointCharges, draw_frames
-from ._charges import Exposure, TapCharges
+from ._charges import Exposure, TapCharges, written_out
 from ._mixer import phase_drift_periods
 from ._montecarlo import Prepared, assemble, check_counts, frames_step
 from ._noise import dark_electrons
@@ -161,7 +160,7 @@ class PreparedCamera(eqx.Module):
         A program of its own, which returns only what depends on the scene (a program's output that
         is one of its inputs is a copy). Inside a transformation of the caller's (``jit``, ``vmap``,
         ``grad``: one program with what reads it), the modulated sum is written out by
-        :func:`_materialised` instead."""
+        :func:`tofjax._charges.written_out` instead."""
         return self._with_camera(*programs(_scene_light, _scene_light_materialised, (self, returns)))
 
     @_jit.method
@@ -266,15 +265,6 @@ class PreparedCamera(eqx.Module):
 
 #: The frame functions' names of the Monte Carlo counts (:func:`tofjax._montecarlo.check_counts`).
 FRAME_COUNTS = ("frames", "keep_frames")
-
-
-def _materialised(x: Float[Array, "*b n"]) -> Float[Array, "*b n"]:
-    """``x`` (its last axis short), written to memory inside a larger program: its product with the
-    identity, exact for finite values. XLA on a CPU does not fuse a dot into its consumers, and it
-    removes ``lax.optimization_barrier`` before fusion. Both taps read the exposure's sum over the
-    returns; inside one program XLA otherwise evaluated its table lookups once per consumer
-    (docs/model.md, "Performance", measurement 14)."""
-    return jnp.einsum("...j,jk->...k", x, jnp.eye(x.shape[-1], dtype=x.dtype), precision=lax.Precision.HIGHEST)
 
 
 def _camera(params: Params, settings: FrameSettings, pattern: PixelPattern | None, smooth: Smooth | None,
@@ -506,7 +496,7 @@ def _scene_light(camera: PreparedCamera, returns: Returns) -> tuple[Array, Array
 def _scene_light_materialised(camera: PreparedCamera, returns: Returns) -> tuple[Array, Array, Array]:
     """:meth:`PreparedCamera._scene_light` inside one program, its modulated sum written out."""
     modulated, signal, background = camera._scene_light(returns)
-    return _materialised(modulated), signal, background
+    return written_out(modulated), signal, background
 
 
 def _point_charges(chain, exposed: Exposure) -> PointCharges:

@@ -66,8 +66,13 @@ class Prepared(eqx.Module):
 
 
 def prepare(chain: Chain, sweep: Sweep, dark_slopes_v_per_s=None) -> Prepared:
+    """The charges and the frames' constants at the sweep's points. The exposure's modulated sum is
+    written out (:meth:`~tofjax._charges.Exposure.written_out`): the run's one program reads the
+    charges in the constants, the result and its breakdown, and XLA on a CPU otherwise wrote out each
+    point's gathered table rows, four per phase image, and evaluated the cubic in every reader
+    (docs/model.md, "Performance", measurement 29)."""
     d, ev, t, temp = sweep.operating_points(chain.params)
-    charges = chain.expose(d, ev, t, temp, dark_slopes_v_per_s)
+    charges = chain.exposure(d, ev, t, temp, dark_slopes_v_per_s).written_out().charges(temp)
     flat = jax.tree_util.tree_map(lambda x: x.reshape((-1,) + x.shape[d.ndim:]), charges)
     n_points = flat.signal_e.shape[0]
     return Prepared(charges, point_constants(chain, flat, jnp.arange(n_points, dtype=jnp.uint32)))
