@@ -31,9 +31,11 @@ wavelengths outside 700-1050 nm (reported as not estimated).
 from __future__ import annotations
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float
 
+from . import _jit
 from ._params import Params
 from ._returns import _tan_half, intensity_per_w
 from ._waveforms import waveform_mean
@@ -106,6 +108,10 @@ class EyeSafety(eqx.Module):
         return jnp.maximum(jnp.maximum(r["average"], r["pulse"]), r["burst"])
 
 
+# frame_timing and eye_safety are compiled, one program each: run eagerly, each of their few dozen
+# operations loaded a program of its own from the compilation cache, 0.9 s of every warm `tofjax
+# simulate` and `render`, which print them (docs/model.md, "Performance", measurement 30).
+@_jit.jit
 def frame_timing(params: Params, n_frequencies: int = 1) -> FrameTiming:
     """The :class:`FrameTiming` of ``params`` (``n_frequencies`` modulation frequencies per frame).
     A configured frame rate above the maximum is not clamped: :func:`check_frame_rate` refuses it."""
@@ -153,6 +159,7 @@ def brightest_intensity_per_w(params: Params, falloff_exponent) -> Float[Array, 
     return jnp.maximum(intensity_per_w(ill, falloff_exponent, axis), intensity_per_w(ill, falloff_exponent, rim))
 
 
+@_jit.jit
 def eye_safety(params: Params, timing: FrameTiming, falloff_exponent=0.0) -> EyeSafety:
     """The class 1 estimate of the illumination of ``params`` run as ``timing`` (module docstring);
     ``falloff_exponent``: ``frame.illumination_falloff_exponent`` (0: the thesis' flat spot)."""
@@ -186,7 +193,7 @@ def describe(params: Params, timing: FrameTiming, safety: EyeSafety) -> list[str
         lines.append(f"eye safety: not estimated: the wavelength {wavelength_nm:.0f} nm is outside the 700-1050 nm "
                      "this estimate covers")
         return lines
-    ratios = {k: float(v) for k, v in safety.ratios.items()}
+    ratios = {k: float(v) for k, v in jax.device_get(safety).ratios.items()}  # NumPy: no program per division
     worst = max(ratios, key=ratios.get)
     what = {"average": "the average power", "pulse": "one phase image", "burst": "a frame's phase images"}[worst]
     verdict = "within" if ratios[worst] <= 1.0 else "ABOVE"
