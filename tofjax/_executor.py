@@ -31,6 +31,7 @@ from collections.abc import Callable
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jax import lax
 
 from . import _jit
@@ -195,13 +196,13 @@ def drive_blocks(step: eqx.Module, consts, n_points: int, frames: int, keep: int
     blocks = _split_jit(consts, n_points, n_blocks, block)
     all_sums, all_records = [], []
     for b in range(n_blocks):
-        cb = _block_jit(blocks, jnp.int32(b))
+        cb = _block_jit(blocks, np.int32(b))  # NumPy scalars: an eager jnp one is a program of its own
         sums = record = None
         if keep > 0:
             sums, record = _record_jit(step, cb, keep)
         more = None
         for i in range(n_chunks):  # one program for every chunk; added as the scan adds them
-            sums_i = _chunk_jit(step, cb, jnp.asarray(keep + i * chunk), chunk, frames)  # int64, as the scan's
+            sums_i = _chunk_jit(step, cb, np.int64(keep + i * chunk), chunk, frames)  # int64, as the scan's
             more = sums_i if more is None else _add_jit(more, sums_i)
             jax.block_until_ready(more)  # the tick counts a chunk done, not dispatched
             tick(total)

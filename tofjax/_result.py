@@ -7,6 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
+from . import _jit
 from ._reduce import mean_last
 
 #: Bits of :attr:`Result.caveats` (analytic path): where the closed-form statistics are not what
@@ -146,33 +147,33 @@ class Result(eqx.Module):
     @property
     def tap_a_v(self) -> Float[Array, "*b phases"]:
         """Tap A's expected voltage, V_A = V_reset - n_A e / C_int (§3.2.4) of its held charge."""
-        return _volts(self, self.tap_a_e)
+        return _volts(self.tap_reset_v, self.electrons_per_volt, self.tap_a_e)
 
     @property
     def tap_b_v(self) -> Float[Array, "*b phases"]:
         """Tap B's expected voltage, V_B = V_reset - n_B e / C_int."""
-        return _volts(self, self.tap_b_e)
+        return _volts(self.tap_reset_v, self.electrons_per_volt, self.tap_b_e)
 
     @property
     def differential_v(self) -> Float[Array, "*b phases"]:
         """V_B - V_A = (n_A - n_B) e / C_int, the differential the ADC converts."""
-        return (self.tap_a_e - self.tap_b_e) / _per_call(self.electrons_per_volt, self.tap_a_e)
+        return _differential_v(self.electrons_per_volt, self.tap_a_e, self.tap_b_e)
 
     @property
     def intensity_e(self) -> Float[Array, "*b"]:
         """The expected electrons a tap holds, (n_A + n_B) / 2 averaged over the phase images (the
         camera's intensity image)."""
-        return 0.5 * mean_last(self.tap_a_e + self.tap_b_e)
+        return _intensity_e(self.tap_a_e, self.tap_b_e)
 
     @property
     def snr_db(self) -> Float[Array, "*b"]:
         """SNR = 20 log10(n_signal / n_total_noise) (Eq 5.1) of :attr:`noise`."""
-        return 20.0 * jnp.log10(self.noise.signal_e / self.noise.total_e)
+        return _snr_db(self.noise.signal_e, self.noise.total_e)
 
     @property
     def relative_depth_std(self) -> Float[Array, "*b"]:
         """Depth standard deviation over the true distance (Figs 5.11b, 5.13, 5.16b)."""
-        return self.depth_std_m / self.distance_m
+        return _ratio(self.depth_std_m, self.distance_m)
 
     def caveat_summary(self) -> list[str]:
         """One line per caveat that applies somewhere: how many points, and why (empty: none)."""
@@ -194,8 +195,31 @@ def _per_call(x: Array, like: Array) -> Array:
     return x.reshape(x.shape + (1,) * (jnp.ndim(like) - x.ndim))
 
 
-def _volts(result: Result, held_e: Array) -> Array:
-    """Voltages V = V_reset - n e / C_int of held charges ``held_e`` (computed on access: at 1e5
-    points, three stored per-phase arrays made :func:`tofjax.predict` 2 ms slower; docs/model.md,
-    "Performance", measurement 24)."""
-    return _per_call(result.tap_reset_v, held_e) - held_e / _per_call(result.electrons_per_volt, held_e)
+# The derived fields, computed on access (at 1e5 points, three stored per-phase arrays made
+# :func:`tofjax.predict` 2 ms slower; docs/model.md, "Performance", measurement 24), each compiled, one
+# program per shape: eagerly, each of their operations loaded or compiled a program of its own (a sweep
+# file's columns: 17 of them; measurement 30). Under a transformation they are traced into the caller's.
+@_jit.jit
+def _volts(tap_reset_v: Array, electrons_per_volt: Array, held_e: Array) -> Array:
+    """Voltages V = V_reset - n e / C_int of held charges ``held_e``."""
+    return _per_call(tap_reset_v, held_e) - held_e / _per_call(electrons_per_volt, held_e)
+
+
+@_jit.jit
+def _differential_v(electrons_per_volt: Array, tap_a_e: Array, tap_b_e: Array) -> Array:
+    return (tap_a_e - tap_b_e) / _per_call(electrons_per_volt, tap_a_e)
+
+
+@_jit.jit
+def _intensity_e(tap_a_e: Array, tap_b_e: Array) -> Array:
+    return 0.5 * mean_last(tap_a_e + tap_b_e)
+
+
+@_jit.jit
+def _snr_db(signal_e: Array, total_e: Array) -> Array:
+    return 20.0 * jnp.log10(signal_e / total_e)
+
+
+@_jit.jit
+def _ratio(a: Array, b: Array) -> Array:
+    return a / b

@@ -124,7 +124,7 @@ def sweep_file_contents(run: Run, config_file: str = "(built-in defaults)") -> t
         "seed": run.seed if mc else "", "iterations": run.iterations if mc else 0,
         "fixed_pattern": str(bool(run.fixed_pattern)).lower(), "config_file": config_file,
         "config_json": json.dumps(config.values, separators=(",", ":")),
-        "unambiguity_range_m": repr(float(params.unambiguity_range_m)),
+        "unambiguity_range_m": repr(float(run.result.unambiguity_range_m)),  # the first frequency's
         "depth_columns": "depth_mean_m is wrapped into [0, unambiguity_range_m) (the circular mean, what a camera "
                          "reports); depth_unwrapped_mean_m is unwrapped along the sweep (the summary's 'unwrapped')"
                          if multi is None else "depth_mean_m is the frequencies' fused, unwrapped distance",
