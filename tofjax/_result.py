@@ -198,7 +198,7 @@ def _per_call(x: Array, like: Array) -> Array:
 # The derived fields, computed on access (at 1e5 points, three stored per-phase arrays made
 # :func:`tofjax.predict` 2 ms slower; docs/model.md, "Performance", measurement 24), each compiled, one
 # program per shape: eagerly, each of their operations loaded or compiled a program of its own (a sweep
-# file's columns: 17 of them; measurement 30). Under a transformation they are traced into the caller's.
+# file's columns: about ten; measurement 30). Under a transformation they are traced into the caller's.
 @_jit.jit
 def _volts(tap_reset_v: Array, electrons_per_volt: Array, held_e: Array) -> Array:
     """Voltages V = V_reset - n e / C_int of held charges ``held_e``."""
