@@ -222,19 +222,18 @@ def simulate(
 @_jit.jit
 def _setup(params, sweep, key, smooth, fixed_pattern, sample, raw, iterations, chain):
     """:func:`simulate`'s run (:func:`tofjax._executor.execute`) with the camera's ``chain``
-    (:func:`tofjax._chain.kept_chain`): the chain and the expected charges and frames' constants
-    (carried to :func:`_finish`), and the chunk step; ``fixed_pattern``: the taps' dark slopes drawn
-    from the key (else the mean pixel's, or the sample's)."""
+    (:func:`tofjax._chain.kept_chain`, an argument of :func:`_finish` too): the expected charges and
+    frames' constants (carried to :func:`_finish`), and the chunk step; ``fixed_pattern``: the taps'
+    dark slopes drawn from the key (else the mean pixel's, or the sample's)."""
     pattern_key, key = jr.split(key)
     slopes = pixel_dark_slopes(params, pattern_key) if fixed_pattern else None
-    return (chain, prepare(chain, sweep, slopes)), frames_step(chain, key_words(key), raw=raw)
+    return prepare(chain, sweep, slopes), frames_step(chain, key_words(key), raw=raw)
 
 
 def _consts(params, sweep, key, smooth, fixed_pattern, sample, raw, iterations, chain, carry) -> PointConstants:
-    return carry[1].consts
+    return carry.consts
 
 
 @_jit.jit
 def _finish(params, sweep, key, smooth, fixed_pattern, sample, raw, iterations, chain, carry, sums, kept) -> Result:
-    chain, prepared = carry
-    return assemble(chain, sweep, prepared, sums, kept, iterations)
+    return assemble(chain, sweep, carry, sums, kept, iterations)
