@@ -65,12 +65,12 @@ def _nan_unless(ok: Array, x: Array) -> Array:
     return jnp.where(ok, x, jnp.nan)
 
 
-def moments(chain: Chain, sweep: Sweep, charges: TapCharges | None = None) -> Moments:
+def moments(chain: Chain, sweep: Sweep, charges: TapCharges | None = None, image: bool = False) -> Moments:
     """The moments through the chain's stages (:meth:`tofjax.chain.Chain.moments`); ``charges``: the
-    exposure's, if computed."""
+    exposure's, if computed; ``image``: the operating points are a frame's pixels."""
     if charges is None:
         charges = chain.expose(*sweep.operating_points(chain.params))
-    return chain.moments(charges)
+    return chain.moments(charges, image)
 
 
 def analytic(chain: Chain, sweep: Sweep, m: Moments | None = None) -> Result:
@@ -114,7 +114,8 @@ def analytic(chain: Chain, sweep: Sweep, m: Moments | None = None) -> Result:
         amplitude_mean_lsb=_nan_unless(keep, amp),
         amplitude_std_lsb=_nan_unless(keep, _depth.safe_sqrt(var_amp)),
         noise=breakdown,
-        valid_fraction=valid.astype(float), pixel_saturated_fraction=pixel_sat.astype(float),
+        valid_fraction=valid.astype(float) if m.delivered is None else valid.astype(float) * m.delivered,
+        pixel_saturated_fraction=pixel_sat.astype(float),
         adc_saturated_fraction=adc_sat.astype(float),
         sbi_active_fraction=jnp.any(sbi_on, axis=-1).astype(float),
         full_well_fraction=full_well_fraction(n_a, n_b, limit.full_well_e), headroom=headroom(chain, n_a, n_b, u),
@@ -122,8 +123,8 @@ def analytic(chain: Chain, sweep: Sweep, m: Moments | None = None) -> Result:
     )
 
 
-def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None, pattern: PixelPattern | None = None
-            ) -> Result:
+def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None, pattern: PixelPattern | None = None,
+            processing: tuple = ()) -> Result:
     """Analytic prediction: expected signals, and standard deviations propagated from the noise
     variances through the chain, in closed form (module docstring).
 
@@ -144,6 +145,8 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None, patte
     - ``pattern``: the swept pixel's own parameters, a :class:`tofjax.PixelPattern` of one pixel
       (``tj.draw_pattern(params, settings, (1, 1))``: its gain, dark slopes, phase offset, tap
       asymmetry and full well, as a frame's pixel has them); ``None``: the mean pixel.
+    - ``processing``: the camera's processing stages (:mod:`tofjax.processing`; a sweep's point is
+      the centre of a uniform patch for the spatial ones); ``()``: the sensor's reading.
 
     **Returns:** a :class:`tofjax.Result` with ``method = "analytic"`` and no per-frame fields.
 
@@ -156,8 +159,8 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None, patte
     """
     check_inputs(params, sweep)
     sample = one_pixel(pattern)
-    padded = _executor.padded(sweep, (params, sweep, smooth, sample))
-    chain = kept_chain(params, smooth, padded.samples, sample)
+    padded = _executor.padded(sweep, (params, sweep, smooth, sample, processing))
+    chain = kept_chain(params, smooth, padded.samples, sample, processing)
     exposure = _predict_exposure(chain, padded)
     return unpad(_predict_result(chain, padded, exposure, _predict_moments(chain, padded, exposure)), sweep, padded)
 

@@ -36,6 +36,7 @@ from ._motion import MovingScene, moving_depth_returns, moving_returns, per_phas
 from ._params import Params
 from ._pattern import PixelPattern
 from ._precision import PRECISIONS, in_precision
+from ._processing import check_processing
 from ._returns import Returns
 from ._scene import SceneGeometry
 from ._schema import FUSIONS
@@ -58,7 +59,10 @@ class Camera(eqx.Module):
     for frames, or of one pixel, ``(1, 1)``, the swept pixel's own sample for sweeps; ``None``:
     every pixel the mean pixel); ``smooth`` (``None``: the hard limits and ADC; a
     :class:`tofjax.Smooth`: their differentiable relaxation, analytic path); ``precision`` (static:
-    ``"float64"``, or ``"float32"`` for frames computed in float32, :meth:`astype`).
+    ``"float64"``, or ``"float32"`` for frames computed in float32, :meth:`astype`); ``processing``
+    (the camera's own depth processing after the demodulation, an ordered tuple of
+    :mod:`tofjax.processing` stages: its factory calibration, spatial and temporal filters and
+    invalidation; ``()``: the sensor's raw reading).
 
     Build it from a configuration with :meth:`from_config`, or directly: ``tj.Camera(tj.Params())``.
     It is a pytree: ``jax.jit``, ``jax.vmap`` and ``jax.grad`` see its parameters as leaves.
@@ -71,6 +75,7 @@ class Camera(eqx.Module):
     pattern: PixelPattern | None = None
     smooth: Smooth | None = None
     precision: str = eqx.field(static=True, default="float64")
+    processing: tuple = ()
 
     def __check_init__(self):
         if self.precision not in PRECISIONS:
@@ -86,6 +91,7 @@ class Camera(eqx.Module):
             raise ValueError(f"Camera: fusion = {self.fusion!r} is not allowed: expected one of "
                              + ", ".join(map(repr, FUSIONS)))
         check_lens(self.params, self.settings)
+        check_processing(self.processing)
         f = self.frequencies_hz
         if f and (len(f) < 2 or len(set(f)) != len(f) or not all(x > 0 for x in f)):
             raise ValueError(f"Camera: frequencies_hz = {list(f)} must be empty (the parameters' one) or two or more "
@@ -94,10 +100,11 @@ class Camera(eqx.Module):
     @classmethod
     def from_config(cls, config, *, pattern: PixelPattern | None = None, smooth: Smooth | None = None) -> Camera:
         """The camera of a :class:`tofjax.Config` (its parameters, ``[frame]`` settings, frequencies
-        and fusion), with an optional camera sample and smooth relaxation."""
+        and fusion, ``[processing]`` stages), with an optional camera sample and smooth relaxation."""
         freqs = tuple(float(f) for f in config.modulation_frequencies_hz)
         fusion = config.values["illumination_waveform"]["frequency_fusion"]
-        return cls(config.params, config.frame, freqs if len(freqs) > 1 else (), fusion, pattern, smooth)
+        return cls(config.params, config.frame, freqs if len(freqs) > 1 else (), fusion, pattern, smooth,
+                   processing=config.processing)
 
     @_jit.method
     def astype(self, precision: str) -> Camera:
@@ -107,7 +114,8 @@ class Camera(eqx.Module):
         and every scene's returns, and the Monte Carlo draws in that precision. Frames only: a sweep
         runs in float64. The error against float64 is stated and tested in docs/model.md, "float32
         frames"."""
-        return Camera(self.params, self.settings, self.frequencies_hz, self.fusion, self.pattern, self.smooth, precision)
+        return Camera(self.params, self.settings, self.frequencies_hz, self.fusion, self.pattern, self.smooth, precision,
+                      self.processing)
 
     @property
     def multifrequency(self) -> bool:
@@ -160,7 +168,8 @@ class Camera(eqx.Module):
         from ._frame import prepare_camera
 
         self._one_frequency("a frame")
-        prepared = prepare_camera(self.params, self.settings, self.pattern, smooth=self.smooth)
+        prepared = prepare_camera(self.params, self.settings, self.pattern, smooth=self.smooth,
+                                  processing=self.processing)
         return prepared if self.precision == "float64" else in_precision(prepared, self.precision)
 
     @_jit.method
@@ -239,8 +248,9 @@ def predict(camera, scene, *, smooth: Smooth | None = None, pattern: PixelPatter
             from ._multifrequency import predict_multifrequency
 
             return predict_multifrequency(camera.params, scene, camera.frequencies_hz, fusion=camera.fusion,
-                                          smooth=camera.smooth)
-        return predict_sweep(camera.params, scene, smooth=camera.smooth, pattern=camera.pattern)
+                                          smooth=camera.smooth, processing=camera.processing)
+        return predict_sweep(camera.params, scene, smooth=camera.smooth, pattern=camera.pattern,
+                             processing=camera.processing)
     return camera.prepare().predict(camera.returns(scene))
 
 
@@ -285,9 +295,10 @@ def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frame
             from ._multifrequency import simulate_multifrequency
 
             return simulate_multifrequency(camera.params, scene, key, frames, camera.frequencies_hz,
-                                           keep_frames=keep_frames, progress=progress, fusion=camera.fusion, raw=raw)
+                                           keep_frames=keep_frames, progress=progress, fusion=camera.fusion, raw=raw,
+                                           processing=camera.processing)
         return simulate_sweep(camera.params, scene, key, frames, smooth=camera.smooth, pattern=camera.pattern,
-                              keep_frames=keep_frames, raw=raw, progress=progress)
+                              keep_frames=keep_frames, raw=raw, progress=progress, processing=camera.processing)
     return camera.expose(scene).render(key, frames, keep_frames=keep_frames, raw=raw, progress=progress)
 
 

@@ -8,6 +8,7 @@ tuple of stages (:mod:`tofjax._stages`) after the exposure.
     ReadoutNonlinearity (gain compression of the readout chain)         -> compressed differential
     Readout (conversion gain, ADC with offset, gain, INL, DNL, rails)   -> codes
     Demodulation (Z = sum_j D_j exp(i theta_j))                         -> phase, amplitude, depth
+    the camera's processing (calibration, filters, invalidation; optional) -> delivered depth
 
 :func:`build_chain` makes each stage from :class:`tofjax.Params` (and a :class:`tofjax.Smooth` for the
 relaxed limits), including the correlation table the exposure reads: everything that does not depend
@@ -35,6 +36,7 @@ from ._mixer import expose
 from ._depth import Demodulation
 from ._noise import AFTER_LIMIT, BEFORE_LIMIT, NOISE_SOURCES, Noise, NoiseBudget
 from ._nonlinearity import ReadoutNonlinearity
+from ._processing import bind_all
 from ._params import Params
 from ._pattern import PixelPattern
 from ._saturation import AbstractLimit, full_well_e, limit_stage
@@ -52,7 +54,7 @@ class Chain(eqx.Module):
 
     **Fields:** ``params`` (the camera), ``correlation`` (the mixer's table), ``stages`` (the ordered
     tuple after the exposure, module docstring; exactly one limit, one readout and one
-    demodulation), ``sample`` (the pixels' own parameters, a :class:`tofjax.PixelPattern` of scalars
+    demodulation, then the camera's processing stages, :mod:`tofjax._processing`), ``sample`` (the pixels' own parameters, a :class:`tofjax.PixelPattern` of scalars
     (a swept pixel) or one per operating point (a frame's pixels): gain, dark slopes, phase offset,
     tap asymmetry, full well; ``None``: the mean pixel), ``drift`` (the correlation's antiderivative when
     another camera's light is in the scene, ``interference.enabled``; else ``None``).
@@ -97,10 +99,26 @@ class Chain(eqx.Module):
         i = next(i for i, s in enumerate(self.stages) if isinstance(s, AbstractLimit))
         return eqx.tree_at(lambda c: c.stages, self, (*self.stages[:i], limit, *self.stages[i + 1:]))
 
-    def moments(self, charges: TapCharges) -> Moments:
+    def moments(self, charges: TapCharges, image: bool = False) -> Moments:
         """The moments through every stage, from the exposure's expected ``charges`` (the analytic
-        path, :mod:`tofjax._analytic`)."""
-        return fold_moments(self.stages, Moments.of(charges))
+        path, :mod:`tofjax._analytic`; ``image``: the points are a frame's pixels, :class:`Moments`)."""
+        return fold_moments(self.stages, Moments.of(charges, image))
+
+    @property
+    def _processing_at(self) -> int:
+        """The first processing stage's place in :attr:`stages` (after the demodulation)."""
+        return 1 + next(i for i, s in enumerate(self.stages) if isinstance(s, Demodulation))
+
+    @property
+    def processing(self) -> tuple[AbstractStage, ...]:
+        """The camera's processing stages (:mod:`tofjax._processing`), in order; ``()``: none."""
+        return self.stages[self._processing_at:]
+
+    def reference_phase(self, phase: Array) -> Array:
+        """A noise-free frame's ``phase`` after the processing stages (:meth:`~tofjax._processing.AbstractProcessing.reference`)."""
+        for stage in self.processing:
+            phase = stage.reference(phase)
+        return phase
 
     @property
     def _readout_at(self) -> int:
@@ -125,7 +143,7 @@ class Chain(eqx.Module):
     def samples(self, diff: Array) -> Samples:
         """Frames of the drawn differential ``diff`` (phase axis first) through the stages after the
         last noise source: codes, ADC flags, phase and amplitude (the Monte Carlo)."""
-        return fold_samples(self.stages[self._drawn:], Samples(diff))
+        return fold_samples(self.stages[self._drawn:self._processing_at], Samples(diff))
 
     def codes(self, diff: Array) -> Array:
         """The codes of the drawn differential ``diff`` (phase axis first): :meth:`samples` up to the
@@ -137,7 +155,7 @@ class Chain(eqx.Module):
         (:attr:`~tofjax._adc.Readout.codes_show_saturation`): the ADC's flags read from the codes,
         then the stages after the readout (phase and amplitude)."""
         s = Samples(None, codes=codes, adc_saturated=self.readout.saturated_codes(codes))
-        return fold_samples(self.stages[self._readout_at + 1:], s)
+        return fold_samples(self.stages[self._readout_at + 1:self._processing_at], s)
 
     @property
     def n_phases(self) -> int:
@@ -178,12 +196,13 @@ class Chain(eqx.Module):
 
 
 def build_chain(params: Params, smooth: Smooth | None = None, points: int | None = None,
-                sample: PixelPattern | None = None) -> Chain:
+                sample: PixelPattern | None = None, processing: tuple = ()) -> Chain:
     """The chain of camera ``params``; ``smooth`` relaxes the limits and the ADC (``None``: hard);
     ``points``, the number of operating points of the call, chooses how the mixer's correlation is
     evaluated (a table, or the series for a few points; ``None``: a table); ``sample``: the pixels'
     own parameters (:class:`Chain`; their full-well scale sets each point's full well, on the axis
-    before the phases)."""
+    before the phases); ``processing``: the camera's processing stages (:mod:`tofjax._processing`),
+    bound to this chain and placed after the demodulation."""
     per_volt = electrons_per_volt(params)
     pixel = params.pixel
     nominal_well = well = full_well_e(pixel.v_reset_v, pixel.v_saturated_v, per_volt, pixel.full_well_e)
@@ -198,7 +217,7 @@ def build_chain(params: Params, smooth: Smooth | None = None, points: int | None
     budget = NoiseBudget.from_params(params)
     stages = (budget.stage(BEFORE_LIMIT), limit, budget.stage(AFTER_LIMIT),
               ReadoutNonlinearity(pixel.readout_nonlinearity, nominal_well), readout,
-              Demodulation(pixel.n_phases, readout.mid_code))
+              Demodulation(pixel.n_phases, readout.mid_code), *bind_all(processing, params, table, sample))
     drift = None
     if params.interference.enabled:  # another camera's light drifts through the correlation
         drift = drift_correlation(params.illumination_waveform, params.reference_waveform, pixel.n_phases,
@@ -215,9 +234,9 @@ KEPT_CHAINS = 4
 
 
 def kept_chain(params: Params, smooth: Smooth | None = None, points: int | None = None,
-               sample: PixelPattern | None = None) -> Chain:
+               sample: PixelPattern | None = None, processing: tuple = ()) -> Chain:
     """:func:`build_chain`'s chain, built by a compiled program of its own at the first eager call
-    with these ``params``, ``smooth`` and ``sample`` and kept for the next ones. Where a leaf is
+    with these ``params``, ``smooth``, ``sample`` and ``processing`` and kept for the next ones. Where a leaf is
     traced (a caller's transformation) it is built in the caller's program and nothing is kept.
 
     Everything in a chain depends on the camera alone: the correlation table (two FFTs of 16 384
@@ -227,18 +246,18 @@ def kept_chain(params: Params, smooth: Smooth | None = None, points: int | None 
     the key; an entry holds its modules, so no other object takes their identity while it is kept.
     The :data:`KEPT_CHAINS` most recently used are kept.
     """
-    if _jit.traced((params, smooth, sample)):
-        return build_chain(params, smooth, points, sample)
+    if _jit.traced((params, smooth, sample, processing)):
+        return build_chain(params, smooth, points, sample, processing)
     tabulate = points is None or points > SERIES_POINTS
-    key = (id(params), id(smooth), id(sample), tabulate)
+    key = (id(params), id(smooth), id(sample), tuple(map(id, processing)), tabulate)
     with _KEPT_LOCK:
         hit = _KEPT.get(key)
         if hit is not None:
             _KEPT.move_to_end(key)
             return hit[-1]
-    chain = _built(params, smooth, None if tabulate else 1, sample)  # one program per camera structure
+    chain = _built(params, smooth, None if tabulate else 1, sample, processing)  # one program per camera structure
     with _KEPT_LOCK:
-        _KEPT[key] = (params, smooth, sample, chain)
+        _KEPT[key] = (params, smooth, sample, processing, chain)
         while len(_KEPT) > KEPT_CHAINS:
             _KEPT.popitem(last=False)
     return chain

@@ -53,6 +53,26 @@ class Config:
         return frame_settings(self.values["frame"])
 
     @property
+    def processing(self) -> tuple:
+        """The ``[processing]`` section as the camera's processing stages (:mod:`tofjax.processing`),
+        in its order: calibration, spatial filter, temporal average, invalidation; ``()``: none."""
+        from . import processing as proc
+
+        v = self.values["processing"]
+        stages = []
+        if v["calibration"]:
+            stages.append(proc.Calibration(temperature_c=v["calibration_temperature_c"]))
+        if v["spatial_filter"] != "none":
+            stages.append(proc.SpatialFilter(v["spatial_filter"], v["spatial_filter_size"]))
+        if v["temporal_average_frames"] > 1:
+            stages.append(proc.TemporalAverage(v["temporal_average_frames"]))
+        if v["amplitude_threshold"] or v["flying_pixel_m"] > 0:
+            stages.append(proc.Invalidation(self.values["frame"]["min_amplitude_lsb"] if v["amplitude_threshold"] else 0.0,
+                                            v["flying_pixel_m"] if v["flying_pixel_m"] > 0 else None,
+                                            v["flying_pixel_neighbours"]))
+        return tuple(stages)
+
+    @property
     def phase_images_per_integration_time(self) -> int:
         """Phase images one configured integration time covers (``scene.integration_time_per``)."""
         return phase_images_per_count(self.values["scene"]["integration_time_per"],
@@ -184,6 +204,7 @@ _SECTION_TITLES = {
     "interference": "Another camera's illumination in the scene (thesis §6.1.3: interference of several cameras)",
     "timing": "Frame timing: the phase images' readout and the frame rate (Appendix A; eye-safety estimate)",
     "frame": "The whole pixel array: optics off axis and fixed-pattern effects (thesis §6.1.1-6.1.2; tofjax render)",
+    "processing": "The camera's own depth processing after the demodulation: calibration, filters, invalidation",
 }
 
 

@@ -34,16 +34,17 @@ from ._correlation import UNROLLED_RETURNS
 from ._flags import (FLAG_LOW_AMPLITUDE, FLAG_LOW_SIGNAL, FLAG_MIXED, FLAG_NO_RETURN, FLAG_OUTSIDE_ILLUMINATION,
                      FLAG_SATURATED, FLAG_WRAPPED)
 from ._framegeometry import FrameSettings, frame_shape, lens_distortion, pixel_etendue_m2_sr
-from ._executor import equal_parts, execute, frame_chunk_elements, programs
-from ._frames import PointCharges, draw_frames
+from ._executor import BLOCK_POINTS, equal_parts, execute, frame_chunk_elements, programs
+from ._frames import PointCharges, draw_delivered
 from ._charges import Exposure, TapCharges, written_out
 from ._mixer import phase_drift_periods
-from ._montecarlo import Prepared, assemble, check_counts, frames_step
+from ._montecarlo import Prepared, assemble, check_counts, drawn_phases, frames_step
 from ._noise import dark_electrons
 from ._photometry import active_e_per_radiance, background_e_per_reflectivity
 from ._params import Params
 from ._pattern import PixelPattern, mean_pattern
 from ._precision import in_precision
+from ._processing import whole_frames
 from ._random import key_words
 from ._reduce import sum_by_slices
 from ._result import Result
@@ -268,11 +269,13 @@ FRAME_COUNTS = ("frames", "keep_frames")
 
 
 def _camera(params: Params, settings: FrameSettings, pattern: PixelPattern | None, smooth: Smooth | None,
-            shape: tuple[int, int], distortion: Array | None, chain: Chain | None = None) -> PreparedCamera:
+            shape: tuple[int, int], distortion: Array | None, chain: Chain | None = None, processing: tuple = ()
+            ) -> PreparedCamera:
     """The :class:`PreparedCamera` of ``params`` (``distortion``: the lens', decided outside the
-    program, :func:`tofjax._framegeometry.lens_distortion`; ``chain``: the frame's chain, if built)."""
+    program, :func:`tofjax._framegeometry.lens_distortion`; ``chain``: the frame's chain, if built;
+    ``processing``: the camera's processing stages, else)."""
     pattern = _pattern(params, shape, pattern)
-    chain = _frame_chain(params, smooth, math.prod(shape), pattern) if chain is None else chain
+    chain = _frame_chain(params, smooth, math.prod(shape), pattern, processing) if chain is None else chain
     scene, consts, pixel = params.scene, params.constants, params.pixel
     t = scene.integration_time_s
     per_radiance = pixel_etendue_m2_sr(params, settings, pixel_field(params.camera, shape)) * pattern.gain  # m^2 sr
@@ -285,13 +288,14 @@ def _camera(params: Params, settings: FrameSettings, pattern: PixelPattern | Non
 
 
 def prepare_camera(params: Params, settings: FrameSettings, pattern: PixelPattern | None = None, *,
-                   smooth: Smooth | None = None) -> PreparedCamera:
+                   smooth: Smooth | None = None, processing: tuple = ()) -> PreparedCamera:
     """Prepare a camera for frames once (:class:`PreparedCamera`): its chain, each pixel's
     conversion of radiance to electrons and its dark electrons. Its methods then expose scenes
     (``sample``, ``noise_image``, ``predict``, ``prepare``, ``render``), each call costing only the
     scene's exposure and the chain after it (:meth:`tofjax.Camera.prepare`)."""
     _check_camera(params, settings, pattern)
-    return _prepare_camera(params, settings, pattern, smooth, frame_shape(params), lens_distortion(settings))
+    return _prepare_camera(params, settings, pattern, smooth, frame_shape(params), lens_distortion(settings), None,
+                           processing)
 
 
 def frame_exposure(chain: Chain, settings: FrameSettings, returns: Returns, pattern: PixelPattern) -> Exposure:
@@ -383,9 +387,11 @@ class FrameResult(eqx.Module):
         return (radial[..., None] * np.asarray(self.direction))[keep]
 
 
-def _frame_chain(params: Params, smooth: Smooth | None, points: int, pattern: PixelPattern) -> Chain:
-    """The chain of the frame's pixels: each its own full well ``(rows, cols, 1)`` (:func:`build_chain`)."""
-    return build_chain(params, smooth, points, pattern)
+def _frame_chain(params: Params, smooth: Smooth | None, points: int, pattern: PixelPattern, processing: tuple = ()
+                 ) -> Chain:
+    """The chain of the frame's pixels: each its own full well ``(rows, cols, 1)`` (:func:`build_chain`),
+    and the camera's processing stages."""
+    return build_chain(params, smooth, points, pattern, processing)
 
 
 def _sweep(params: Params, radial_m: Array | Sweep) -> Sweep:
@@ -433,9 +439,12 @@ class PreparedFrame(eqx.Module):
                progress: bool = False) -> FrameResult:
         """``frames`` Monte Carlo frames (``tj.simulate(camera, scene, ...)`` is ``camera.expose(scene).render(...)``)."""
         check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS, raw=raw)
+        points, phases, elements = math.prod(self.shape), drawn_phases(self.chain, image=True), frame_chunk_elements()
+        whole = whole_frames(self.chain.processing)  # a stage reads neighbours or per-pixel values: whole frames
         return self._wrap(execute(_render_setup, _render_consts, _render_finish, (self, key, raw, frames),
-                                  points=math.prod(self.shape), frames=frames, keep=keep_frames,
-                                  phases=self.chain.n_phases, elements=frame_chunk_elements(), progress=progress))
+                                  points=points, frames=frames, keep=keep_frames, phases=phases,
+                                  elements=max(elements, points * phases) if whole else elements,
+                                  block_points=points if whole else BLOCK_POINTS, progress=progress))
 
     @_jit.method
     def predict(self) -> FrameResult:
@@ -515,7 +524,7 @@ def _charges_and_constants(chain, radial_m, exposure: Exposure):
 def _render_setup(frame: PreparedFrame, key, raw, frames):
     """A prepared frame's run (:func:`tofjax._executor.execute`): nothing to carry, the chunk step of
     the frame's chain (only the key's words computed)."""
-    return None, frames_step(frame.chain, _key_words(key), raw=raw)
+    return None, frames_step(frame.chain, _key_words(key), raw=raw, image=frame.shape)
 
 
 def _render_consts(frame: PreparedFrame, key, raw, frames, carry):
@@ -530,7 +539,7 @@ def _render_finish(frame: PreparedFrame, key, raw, frames, carry, sums, kept) ->
 def _predict_prepared(chain, sweep, exposed) -> Result:
     """The analytic frame (``sweep``: the pixels' :class:`Sweep`, or their true distances)."""
     sweep = _sweep(chain.params, sweep)
-    return analytic(chain, sweep, moments(chain, sweep, exposed.charges()))
+    return analytic(chain, sweep, moments(chain, sweep, exposed.charges(), image=True))
 
 
 @_jit.jit
@@ -538,13 +547,13 @@ def _expected(chain, sweep, charges) -> tuple[Array, Array]:
     """A scene's expected phase noise and amplitude, for its flags: of the analytic frame only these,
     in a program of their own (the whole analytic frame cost a one-frame render a third of its
     time; with the scene's flags in the same program XLA evaluated the chain twice)."""
-    return _phase_noise(analytic(chain, sweep, moments(chain, sweep, charges)))
+    return _phase_noise(analytic(chain, sweep, moments(chain, sweep, charges, image=True)))
 
 
 @_jit.jit
 def _noise_image_prepared(chain, sweep, exposed) -> Array:
     sweep = _sweep(chain.params, sweep)
-    return analytic(chain, sweep, moments(chain, sweep, exposed.charges())).depth_std_m
+    return analytic(chain, sweep, moments(chain, sweep, exposed.charges(), image=True)).depth_std_m
 
 
 @_jit.jit
@@ -555,7 +564,7 @@ def _sample_prepared(chain, source, key, frames, shape, raw=False) -> NoisyFrame
     # PointConstants, or their PointCharges, from which one chunk makes the constants as it draws
     # and several make them once.
     n, words = math.prod(shape), key_words(key)
-    chunk = equal_parts(frames, frame_chunk_elements() // (n * chain.n_phases))
+    chunk = equal_parts(frames, max(1, frame_chunk_elements() // (n * drawn_phases(chain, image=True))))
     n_chunks = -(-frames // chunk)
     to_m = chain.unambiguity_range_m / (2.0 * jnp.pi)
 
@@ -563,8 +572,8 @@ def _sample_prepared(chain, source, key, frames, shape, raw=False) -> NoisyFrame
         source = source.constants(chain)
 
     def one(first):
-        f = draw_frames(chain, source, words, first, chunk, frames_first=True, taps=raw)
-        valid = ~f.pixel_saturated & ~f.adc_saturated
+        f = draw_delivered(chain, source, words, first, chunk, frames_first=True, taps=raw, image=shape)
+        valid = ~f.pixel_saturated & ~f.adc_saturated if f.valid is None else f.valid
         out = (jnp.where(valid, jnp.mod(f.phase, 2.0 * jnp.pi) * to_m, jnp.nan), f.amplitude, valid)
         # The raw images (phases, frames, points) -> frames first, as the images.
         return out + (tuple(jnp.moveaxis(x, 0, 1) for x in (f.codes, f.tap_a_e, f.tap_b_e)) if raw else ())

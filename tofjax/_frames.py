@@ -33,6 +33,8 @@ from jaxtyping import Array
 from . import _depth
 from ._chain import Chain
 from ._charges import TapCharges
+from ._processing import (Layout, any_of_groups, expand_patches, first_of_groups, frames_in, patch_size, process,
+                          whole_frames)
 from ._random import MAX_ABS_NORMAL, normals
 from ._reduce import sum_by_slices
 
@@ -102,12 +104,13 @@ def point_constants(chain: Chain, charges: TapCharges, index: Array, full_well_e
     sd_a, sd_b = jnp.sqrt(var_a), jnp.sqrt(var_b)
     linear, always = chain.limit.linear(n_a, n_b, MAX_ABS_NORMAL * sd_a, MAX_ABS_NORMAL * sd_b)
     t = lambda x: jnp.moveaxis(x, -1, 0)  # noqa: E731 - (points, phases) -> (phases, points)
-    ref = chain.samples(t(m.diff))  # the noise-free frame
+    ref = chain.samples(t(m.diff))  # the noise-free frame (its phase as the camera's processing leaves it)
     return PointConstants(
         n_a=t(n_a), n_b=t(n_b), sd_a=t(sd_a), sd_b=t(sd_b), sd_after=t(jnp.sqrt(post_a + post_b)),
         sd_after_a=t(jnp.sqrt(jnp.broadcast_to(post_a, n_a.shape))),
         sd_fast=t(jnp.sqrt(var_a + var_b + post_a + post_b)), linear=jnp.all(linear, axis=-1),
-        sbi_fixed=jnp.any(always, axis=-1), ref_phase=ref.phase, ref_amp=ref.amplitude, index=index,
+        sbi_fixed=jnp.any(always, axis=-1), ref_phase=chain.reference_phase(ref.phase), ref_amp=ref.amplitude,
+        index=index,
         full_well_e=full_well_e,
     )
 
@@ -124,6 +127,7 @@ class FrameBatch(eqx.Module):
     sbi_engaged: Array
     tap_a_e: Array | None = None
     tap_b_e: Array | None = None
+    valid: Array | None = None  # delivered (the camera's processing); None: neither pixel nor ADC saturated
 
 
 def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[Array, Array], first_frame: Array,
@@ -253,6 +257,46 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
                       tap_a, tap_b)
 
 
+def draw_delivered(chain: Chain, source: PointConstants | PointCharges, key: tuple[Array, Array], first_frame: Array,
+                   n_frames: int, stream=0, linear: Array | None = None, frames_first: bool = False,
+                   taps: bool = False, image: tuple[int, int] | None = None) -> FrameBatch:
+    """The frames the camera delivers: :func:`draw_frames` (the sensor's), then the camera's
+    processing stages (:mod:`tofjax._processing`; without them, the drawn frames as they are).
+    ``image``: the points are a frame's pixels, ``(rows, cols)`` (whole frames); ``None``: a sweep's
+    points, each drawn as the centre of its uniform patch where a stage reads neighbours.
+
+    Delivered frame ``f`` is made of raw frames ``f g .. f g + g - 1`` (``g``: raw frames per
+    delivered frame). The batch's phase, amplitude and ``valid`` are the delivered frames'; its
+    codes and raw taps are the first raw frame's of each delivered frame, its flags whether any of
+    its raw frames saturated or engaged SBI, all at the points (a patch's centre)."""
+    stages = chain.processing
+    if not stages:
+        return draw_frames(chain, source, key, first_frame, n_frames, stream, linear, frames_first, taps)
+    g = frames_in(stages)
+    if not whole_frames(stages):  # no stage reads neighbours or holds per-pixel values: each point alone
+        grid, patch = (source.index.shape[0], 1, 1), False
+    elif image is None:
+        p = patch_size(stages)
+        grid, patch = (source.index.shape[0], p, p), True
+        source = expand_patches(source, p)
+        linear = None if linear is None else jnp.repeat(linear, p * p)
+    else:
+        grid, patch = tuple(image), False
+    f = draw_frames(chain, source, key, first_frame * g, n_frames * g, stream, linear, frames_first, taps)
+    layout = Layout(frames_first, grid, patch)
+    phase, amplitude, valid = process(stages, f.phase, f.amplitude, ~f.pixel_saturated & ~f.adc_saturated, layout)
+    per_frame = (0, 1) if frames_first else (1, 0)  # (frames, points) axes of the per-point arrays
+    raw = (1, 2) if frames_first else (2, 1)  # of the (phases, ...) arrays
+
+    def at_points(x, axes, reduce):
+        return None if x is None else reduce(layout.centre(x, axes[1]), g, axes[0])
+
+    return FrameBatch(at_points(f.codes, raw, first_of_groups), phase, amplitude,
+                      *(at_points(x, per_frame, any_of_groups) for x in (f.pixel_saturated, f.adc_saturated,
+                                                                          f.sbi_engaged)),
+                      at_points(f.tap_a_e, raw, first_of_groups), at_points(f.tap_b_e, raw, first_of_groups), valid)
+
+
 def _nonzero(x: Array) -> Array:
     """``x`` where it is not 0, else 1: the denominator of a conditional draw whose numerator is then 0."""
     return jnp.where(x != 0.0, x, 1.0)
@@ -281,7 +325,7 @@ def reduce_frames(c: PointConstants, f: FrameBatch, counted: Array, frames_first
     """Sums of one chunk (``counted``: frames that belong to the run, broadcast against the batch's
     ``(points, frames)``, or with ``frames_first`` its ``(frames, points)``) and each frame's validity."""
     axis, ref = (-2, lambda x: x[None, :]) if frames_first else (-1, lambda x: x[:, None])
-    valid = ~f.pixel_saturated & ~f.adc_saturated
+    valid = ~f.pixel_saturated & ~f.adc_saturated if f.valid is None else f.valid
     use = valid & counted
     dev = jnp.where(use, wrap(f.phase - ref(c.ref_phase)), 0.0)
     amp = jnp.where(use, f.amplitude - ref(c.ref_amp), 0.0)

@@ -15,10 +15,11 @@ from ._depth import unwrap_along_sweep
 from . import _jit
 from ._executor import BLOCK_POINTS, CHUNK_ELEMENTS, execute, run_blocks
 from ._limits import kept_bytes_limit, kept_limit_text, size_text
-from ._frames import PointConstants, Sums, draw_frames, frame_statistics, point_constants, reduce_frames
+from ._frames import PointConstants, Sums, draw_delivered, frame_statistics, point_constants, reduce_frames
 from ._charges import TapCharges
 from ._params import Params
 from ._pattern import PixelPattern, one_pixel, pixel_dark_slopes
+from ._processing import draw_factor
 from ._random import key_words
 from ._result import Result
 from ._smooth import Smooth
@@ -94,11 +95,13 @@ class FramesStep(eqx.Module):
     words: tuple[Array, Array]
     stream: int = eqx.field(static=True, default=0)
     raw: bool = eqx.field(static=True, default=False)
+    image: tuple[int, int] | None = eqx.field(static=True, default=None)  # a frame's pixels (whole frames)
 
     def __call__(self, c, first, n, counted, record):
         ff = n < c.index.shape[0] and not record
         taps = record and self.raw
-        frames = draw_frames(self.chain, c, self.words, first, n, self.stream, frames_first=ff, taps=taps)
+        frames = draw_delivered(self.chain, c, self.words, first, n, self.stream, frames_first=ff, taps=taps,
+                                image=self.image)
         sums, valid = reduce_frames(c, frames, counted[:, None] if ff else counted[None, :], frames_first=ff)
         if not record:
             return sums, None
@@ -108,9 +111,11 @@ class FramesStep(eqx.Module):
         return sums, kept + ((last(frames.tap_a_e), last(frames.tap_b_e)) if taps else ())
 
 
-def frames_step(chain: Chain, words, stream: int = 0, raw: bool = False) -> FramesStep:
-    """The chunk step of one chain (:class:`FramesStep`; ``raw``: its kept frames' taps too)."""
-    return FramesStep(chain, words, stream, raw)
+def frames_step(chain: Chain, words, stream: int = 0, raw: bool = False, image: tuple[int, int] | None = None
+                ) -> FramesStep:
+    """The chunk step of one chain (:class:`FramesStep`; ``raw``: its kept frames' taps too; ``image``:
+    the points are a frame's pixels, drawn as whole frames)."""
+    return FramesStep(chain, words, stream, raw, image)
 
 
 def assemble(chain: Chain, sweep: Sweep, prepared: Prepared, sums: Sums, kept, iterations: int) -> Result:
@@ -159,7 +164,7 @@ def monte_carlo(chain: Chain, sweep: Sweep, key: PRNGKeyArray, iterations: int, 
     """:func:`simulate` on a built chain (``chunking``: phase images per chunk, points per block)."""
     prepared = prepare(chain, sweep, dark_slopes_v_per_s)
     sums, kept = run_blocks(frames_step(chain, key_words(key), raw=raw), prepared.consts, sweep.samples, iterations,
-                            keep_frames, chain.n_phases, *chunking, progress=progress)
+                            keep_frames, drawn_phases(chain), *chunking, progress=progress)
     return assemble(chain, sweep, prepared, sums, kept, iterations)
 
 
@@ -175,6 +180,7 @@ def simulate(
     keep_frames: int = 0,
     raw: bool = False,
     progress: bool = False,
+    processing: tuple = (),
 ) -> Result:
     """Monte Carlo simulation: ``iterations`` noisy frames at every operating point.
 
@@ -200,6 +206,9 @@ def simulate(
     - ``raw``: the kept frames carry their whole raw phase images, both taps' electrons as read
       (``frames_tap_a_e``, ``frames_tap_b_e``) beside the codes (static; the same frames either
       way; docs/model.md, "Raw phase images").
+    - ``processing``: the camera's processing stages (:mod:`tofjax.processing`): the statistics are
+      the delivered frames' (a sweep's point drawn as the centre of a uniform patch where a stage
+      reads neighbours); ``()``: the sensor's frames.
     - ``progress``: report every chunk of frames to :mod:`tofjax.progress`: the chunks are run
       from the host, one compiled call each (the same numbers to rounding; programs that JAX's persistent
       compilation cache keeps), or under a transformation by a host callback per chunk in the
@@ -213,10 +222,17 @@ def simulate(
     if fixed_pattern and sample is not None:
         raise ValueError("give fixed_pattern or pattern, not both: fixed_pattern draws the taps' dark slopes from the "
                          "key, pattern is the pixel's whole sample")
-    chain = kept_chain(params, smooth, sweep.samples, sample)
+    chain = kept_chain(params, smooth, sweep.samples, sample, processing)
     return execute(_setup, _consts, _finish, (params, sweep, key, smooth, fixed_pattern, sample, raw, iterations, chain),
-                   points=sweep.samples, frames=iterations, keep=keep_frames, phases=params.pixel.n_phases,
+                   points=sweep.samples, frames=iterations, keep=keep_frames, phases=drawn_phases(chain),
                    progress=progress)
+
+
+def drawn_phases(chain: Chain, image: bool = False) -> int:
+    """Raw phase images drawn per delivered frame of a point (the executor's chunking): the sensor's
+    phase images, times the processing's raw frames and a sweep's patch
+    (:func:`tofjax._processing.draw_factor`)."""
+    return chain.n_phases * draw_factor(chain.processing, image)
 
 
 @_jit.jit

@@ -46,10 +46,11 @@ from . import _jit
 from ._analytic import analytic, moments
 from ._chain import Chain, build_chain
 from ._executor import execute
-from ._frames import draw_frames, reduce_frames, sample_mean_std, wrap
+from ._frames import draw_delivered, reduce_frames, sample_mean_std, wrap
 from ._montecarlo import assemble, check_counts, prepare
 from ._constants import SPEED_OF_LIGHT_M_PER_S
 from ._params import Params
+from ._processing import draw_factor
 from ._random import key_words
 from ._result import Result
 from ._schema import FUSIONS
@@ -161,43 +162,48 @@ def _with_frequency(params: Params, f) -> Params:
 
 
 def predict_multifrequency(params: Params, sweep: Sweep, frequencies_hz, *, fusion: str = "inverse_variance",
-                           smooth: Smooth | None = None) -> MultiFrequencyResult:
+                           smooth: Smooth | None = None, processing: tuple = ()) -> MultiFrequencyResult:
     """Analytic prediction of a multi-frequency camera: :func:`tofjax.predict` at every frequency
     (same exposure per frequency) and the fused distance (module docstring).
 
     ``depth_mean_m`` is the fused distance of the expected phases (with wiggling), unwrapped over the
     extended range; ``depth_std_m`` the fused noise sqrt(sum w_i^2 sigma_i^2) / sum w_i for the correct
-    unwrap; ``valid_fraction`` 1 where every frequency is valid. ``frequencies_hz``: concrete
-    values; ``fusion``: ``inverse_variance`` (default), ``unambiguity_range``, ``equal`` or
-    ``highest_frequency``; ``smooth``: as :func:`tofjax.predict`.
+    unwrap; ``valid_fraction`` the probability that every frequency is delivered. ``frequencies_hz``:
+    concrete values; ``fusion``: ``inverse_variance`` (default), ``unambiguity_range``, ``equal`` or
+    ``highest_frequency``; ``smooth``: as :func:`tofjax.predict`; ``processing``: the camera's
+    processing stages, run on each frequency's phase before the fusion (docs/model.md, "The camera's
+    processing").
     """
     check_inputs(params, sweep)
     freqs = _check_frequencies(frequencies_hz, fusion)
     c = SPEED_OF_LIGHT_M_PER_S  # exact (SI); concrete even when params are traced (calibration)
     ranges = tuple(float(x) for x in c / (2.0 * freqs))
-    return _predict(params, sweep, jnp.asarray(freqs), float(extended_range_m(freqs, c)), ranges, fusion, smooth)
+    return _predict(params, sweep, jnp.asarray(freqs), float(extended_range_m(freqs, c)), ranges, fusion, smooth,
+                    processing)
 
 
 @_jit.jit
-def _predict(params, sweep, freqs, extended, ranges, fusion, smooth) -> MultiFrequencyResult:
+def _predict(params, sweep, freqs, extended, ranges, fusion, smooth, processing=()) -> MultiFrequencyResult:
     ranges_np = np.asarray(ranges)
-    per = jax.vmap(lambda f: analytic(build_chain(_with_frequency(params, f), smooth, sweep.samples), sweep))(freqs)
+    per = jax.vmap(lambda f: analytic(build_chain(_with_frequency(params, f), smooth, sweep.samples,
+                                                  processing=processing), sweep))(freqs)
     weights = fusion_weights(per.depth_std_m**2, ranges_np, fusion)
     phases = 2.0 * jnp.pi * per.depth_mean_m / jnp.asarray(ranges_np).reshape((-1,) + (1,) * sweep.values.ndim)
     ok = jnp.all(jnp.isfinite(phases), axis=0)
     mean = unwrap_frequencies(jnp.where(ok, phases, 0.0), ranges_np, extended, jnp.where(ok, weights, 1.0))
-    valid = jnp.all(per.valid_fraction > 0, axis=0)
+    valid = jnp.prod(per.valid_fraction, axis=0)
     d = sweep.operating_points(params)[0]
     return MultiFrequencyResult(
         frequencies_hz=freqs, extended_range_m=jnp.asarray(extended), distance_m=d, per_frequency=per,
         depth_m=None, valid=None, wrong_unwrap=None, depth_mean_m=jnp.where(ok, mean, jnp.nan),
         depth_std_m=fused_std(per.depth_std_m, weights), wrong_unwrap_fraction=jnp.full(d.shape, jnp.nan),
-        valid_fraction=valid.astype(float), fusion=fusion)
+        valid_fraction=valid, fusion=fusion)
 
 
 def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, iterations: int,
                             frequencies_hz, *, keep_frames: int = 0, progress: bool = False,
-                            fusion: str = "inverse_variance", raw: bool = False) -> MultiFrequencyResult:
+                            fusion: str = "inverse_variance", raw: bool = False, processing: tuple = ()
+                            ) -> MultiFrequencyResult:
     """Monte Carlo at every frequency (frames drawn together, chunk by chunk) and the combined,
     unwrapped distance.
 
@@ -206,7 +212,7 @@ def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, ite
     ``keep_frames``: unwrapped frames to return per point (the plots use them); ``progress``: as
     :func:`tofjax.simulate`; ``raw`` (static): every frequency's kept frames carry their raw phase
     images' taps too (``per_frequency.frames_tap_a_e`` / ``frames_tap_b_e`` beside
-    ``per_frequency.codes``, a leading frequency axis).
+    ``per_frequency.codes``, a leading frequency axis); ``processing``: as :func:`predict_multifrequency`.
     """
     check_inputs(params, sweep)
     freqs = np.asarray(frequencies_hz, dtype=float).reshape(-1)
@@ -218,9 +224,9 @@ def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, ite
     ranges = tuple(float(x) for x in c / (2.0 * freqs))
     freqs, extended = jnp.asarray(freqs), float(extended_range_m(freqs, c))
     return execute(_run_setup, _run_consts, _run_finish,
-                   (params, sweep, key, freqs, extended, ranges, fusion, iterations, raw),
-                   points=sweep.samples, frames=iterations, keep=keep_frames, phases=params.pixel.n_phases,
-                   progress=progress)
+                   (params, sweep, key, freqs, extended, ranges, fusion, iterations, raw, processing),
+                   points=sweep.samples, frames=iterations, keep=keep_frames,
+                   phases=params.pixel.n_phases * draw_factor(processing, image=False), progress=progress)
 
 
 class _Step(eqx.Module):
@@ -240,7 +246,7 @@ class _Step(eqx.Module):
         consts, ref, true, w = cb
         linear = jnp.all(consts.linear, axis=0)  # a point's path, the same at every frequency (outside the vmap)
         taps = record and self.raw
-        frames = jax.vmap(lambda ch, c, st: draw_frames(ch, c, words, first, n, st, linear, taps=taps))(
+        frames = jax.vmap(lambda ch, c, st: draw_delivered(ch, c, words, first, n, st, linear, taps=taps))(
             self.chains, consts, self.streams)
         per, valid_f = jax.vmap(lambda c, f: reduce_frames(c, f, counted[None, :]))(consts, frames)
         valid = jnp.all(valid_f, axis=0)
@@ -263,14 +269,14 @@ class _Step(eqx.Module):
         return (per, combined), out
 
 
-def _setup(params, sweep, key, freqs, extended, ranges, fusion, raw=False):
+def _setup(params, sweep, key, freqs, extended, ranges, fusion, raw=False, processing=()):
     """Every frequency's chain and frames' constants, the chunk step, and the blocks' inputs (the
     constants, the noise-free unwrapped distance, the true distance, the fusion weights)."""
     ranges = np.asarray(ranges)  # concrete: the number of unwrapping candidates depends on them
     n_freq = len(ranges)
 
     def chain_at(f):
-        return build_chain(_with_frequency(params, f), points=sweep.samples)
+        return build_chain(_with_frequency(params, f), points=sweep.samples, processing=processing)
 
     chains = jax.vmap(chain_at)(freqs)
     prepared = jax.vmap(lambda ch: prepare(ch, sweep))(chains)
@@ -313,18 +319,18 @@ def _finish(params, sweep, iterations, freqs, extended, fusion, chains, prepared
 
 
 @_jit.jit
-def _run_setup(params, sweep, key, freqs, extended, ranges, fusion, iterations, raw):
+def _run_setup(params, sweep, key, freqs, extended, ranges, fusion, iterations, raw, processing):
     """:func:`simulate_multifrequency`'s run (:func:`tofjax._executor.execute`)."""
-    chains, prepared, step, consts = _setup(params, sweep, key, freqs, extended, ranges, fusion, raw)
+    chains, prepared, step, consts = _setup(params, sweep, key, freqs, extended, ranges, fusion, raw, processing)
     return (chains, prepared, consts), step
 
 
-def _run_consts(params, sweep, key, freqs, extended, ranges, fusion, iterations, raw, carry):
+def _run_consts(params, sweep, key, freqs, extended, ranges, fusion, iterations, raw, processing, carry):
     return carry[2]
 
 
 @_jit.jit
-def _run_finish(params, sweep, key, freqs, extended, ranges, fusion, iterations, raw, carry, sums, kept
+def _run_finish(params, sweep, key, freqs, extended, ranges, fusion, iterations, raw, processing, carry, sums, kept
                 ) -> MultiFrequencyResult:
     chains, prepared, consts = carry
     return _finish(params, sweep, iterations, freqs, extended, fusion, chains, prepared, consts[1], sums, kept)

@@ -69,7 +69,8 @@ def run_sweep(config: Config, sweep: Sweep, method: str = "mc", iterations: int 
     keep = min(keep_frames, iterations, max_keep_frames(sweep.samples * copies, camera.params.pixel.n_phases))
     key = jax.random.key(seed)
     if fixed_pattern:  # the population's dark slopes, drawn from the key (simulate(params, ...)'s own door)
-        out = simulate(camera.params, sweep, key, iterations, fixed_pattern=True, keep_frames=keep, progress=progress)
+        out = simulate(camera.params, sweep, key, iterations, fixed_pattern=True, keep_frames=keep, progress=progress,
+                       processing=camera.processing)
     elif method == "mc":
         out = simulate(camera, sweep, key, iterations, keep_frames=keep, progress=progress)
     else:

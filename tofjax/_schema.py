@@ -25,6 +25,8 @@ BACKGROUNDS = ("sunlight", "halogen", "incandescent", "fluorescent", "led")
 EXPOSURE_DEFINITIONS = ("phase_image", "frequency", "frame")
 #: How a multi-frequency camera combines its frequencies' distances (docs/model.md, "Frequency fusion").
 FUSIONS = ("inverse_variance", "unambiguity_range", "equal", "highest_frequency")
+#: The camera's spatial filters (``processing.spatial_filter``; ``tofjax.processing.SpatialFilter``).
+SPATIAL_FILTERS = ("none", "box", "median")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -343,6 +345,28 @@ KEYS: tuple[Key, ...] = (
        "fraction of the unambiguity range is flagged mixed: it averages several surfaces (a flying pixel) or multipath",
        0.0, 1.0,
        lo_open=True),
+    # --- [processing]  the camera's own depth processing after the demodulation (docs/model.md "The camera's
+    # processing"; tofjax.processing), in this order: calibration, spatial filter, temporal average, invalidation
+    _k("processing", "calibration", "bool", False, "-",
+       "the camera's factory calibration of its systematic error: the wiggling of its waveforms and its phase offset "
+       "(each pixel's own, with a pattern) are measured at calibration_temperature_c and removed from every reading; "
+       "what remains is the drift away from that temperature, signal-dependent errors and multipath"),
+    _k("processing", "calibration_temperature_c", "float", 25.0, "degC",
+       "the sensor's temperature during the factory calibration", -273.15, 200.0, lo_open=True),
+    _k("processing", "spatial_filter", "choice", "none", "-",
+       "the camera's spatial filter of the depth over spatial_filter_size^2 pixels (a sweep's point: the centre of "
+       "a uniform patch)", choices=SPATIAL_FILTERS),
+    _k("processing", "spatial_filter_size", "int", 3, "1", "side of the spatial filter's neighbourhood (odd)", 3, 7),
+    _k("processing", "temporal_average_frames", "int", 1, "1",
+       "raw frames the camera averages into each delivered frame (1 = none)", 1, 64),
+    _k("processing", "amplitude_threshold", "bool", False, "-",
+       "the camera invalidates a frame's pixel whose amplitude is below frame.min_amplitude_lsb (its confidence "
+       "threshold, per frame; the low-amplitude flag reads the expected amplitude against the same value)"),
+    _k("processing", "flying_pixel_m", "float", 0.0, "m",
+       "the camera's flying-pixel filter: a pixel whose depth differs by more than this from flying_pixel_neighbours "
+       "of its 8 neighbours is invalidated; 0 = off", 0.0, 10.0),
+    _k("processing", "flying_pixel_neighbours", "int", 1, "1",
+       "how many of a pixel's 8 neighbours must differ by more than flying_pixel_m", 1, 8),
 )
 
 SECTIONS: tuple[str, ...] = tuple(dict.fromkeys(k.section for k in KEYS))
@@ -627,6 +651,10 @@ def validate(raw: Mapping[str, Any], where: str = "") -> dict[str, dict[str, Any
         lo, hi = s[lo_key], s[hi_key]
         if not lo < hi:
             raise ConfigError(f"{loc}scene.{lo_key} = {lo!r} must be less than scene.{hi_key} = {hi!r}")
+    size = merged["processing"]["spatial_filter_size"]
+    if size % 2 == 0:
+        raise ConfigError(f"{loc}processing.spatial_filter_size = {size!r} is out of range: allowed an odd integer "
+                          "3 <= value <= 7")
     try:
         check_quantum_efficiency(p["photo_responsivity_a_per_w"], merged["illumination"]["wavelength_m"])
     except ValueError as err:

@@ -38,7 +38,15 @@ class Moments(eqx.Module):
       readout's input), e- and e-^2; ``post_a``, ``post_b``: the taps' variances added after it;
     - ``code``, ``u``, ``slope_u``, ``var_code``: after the readout, the expected code, the code
       position, its slope d u / d charge, and the code variance (with quantisation), LSB;
-    - ``phase``, ``var_phase``, ``v_first``, ``amp``, ``var_amp``: after the demodulation, ``(*b,)``.
+    - ``phase``, ``var_phase``, ``v_first``, ``amp``, ``var_amp``: after the demodulation, ``(*b,)``;
+      the camera's processing stages (:mod:`tofjax._processing`) act on these;
+    - ``delivered``: the probability that the camera's processing delivers the point (its own
+      invalidation, :mod:`tofjax._invalidation`), ``(*b,)``; ``None``: 1;
+    - ``image`` (static): whether the operating points' last two axes are an image of neighbouring
+      pixels (a frame), so that a spatial stage filters across them; ``False``: independent points
+      (a sweep), each the centre of a uniform patch, where a spatial stage's closed form applies;
+    - ``correlation`` (static): the correlation of the phase noise of a pixel and its (side,
+      diagonal) neighbour, which a spatial filter's overlapping windows make (0: independent pixels).
     """
 
     charges: TapCharges
@@ -59,12 +67,16 @@ class Moments(eqx.Module):
     v_first: Array | None = None
     amp: Array | None = None
     var_amp: Array | None = None
+    delivered: Array | None = None
+    image: bool = eqx.field(static=True, default=False)
+    correlation: tuple[float, float] = eqx.field(static=True, default=(0.0, 0.0))
 
     @classmethod
-    def of(cls, charges: TapCharges) -> Moments:
-        """The moments the exposure hands on: the expected charges, no variance yet."""
+    def of(cls, charges: TapCharges, image: bool = False) -> Moments:
+        """The moments the exposure hands on: the expected charges, no variance yet (``image``: the
+        points are a frame's pixels)."""
         zero = jnp.zeros(charges.photo_a.shape, charges.photo_a.dtype)
-        return cls(charges, charges.a, charges.b, zero, zero)
+        return cls(charges, charges.a, charges.b, zero, zero, image=image)
 
     @property
     def limited(self) -> bool:
@@ -79,7 +91,11 @@ class Samples(eqx.Module):
 
     **Fields:** ``diff`` (the differential A - B, e-; ``None`` for frames that start at their codes,
     :meth:`tofjax.chain.Chain.samples_of_codes`), ``u`` and ``codes`` (code position and codes),
-    ``adc_saturated`` (``(*points)``), ``phase`` (arg Z in (-pi, pi]) and ``amplitude`` (``(*points)``).
+    ``adc_saturated`` (``(*points)``), ``phase`` (arg Z in (-pi, pi]) and ``amplitude`` (``(*points)``),
+    ``valid`` (whether the camera delivers the frame's point: not saturated, and kept by its
+    processing). The camera's processing stages (:mod:`tofjax._processing`) see ``phase``,
+    ``amplitude`` and ``valid`` as ``(frames, ..., rows, cols)``: frames first and the pixels'
+    neighbourhood on the last two axes.
     """
 
     diff: Array | None
@@ -88,6 +104,7 @@ class Samples(eqx.Module):
     adc_saturated: Array | None = None
     phase: Array | None = None
     amplitude: Array | None = None
+    valid: Array | None = None
 
 
 def replace(state, **fields):
