@@ -292,3 +292,52 @@ def test_ctrl_c_is_one_line_and_exit_status_130(tmp_path):
     assert proc.returncode == 130, err
     assert err.strip() == (f"tofjax: interrupted after {rows} of 8 points; every completed point is in {out}; "
                            "continue with --resume"), err
+
+
+# The tofjax command in a process that sends itself SIGINT once a compilation (a persistent-cache
+# request not yet ended by its backend compile) has run 0.3 s: the Ctrl-C lands inside jaxlib's wait
+# for the compilation, which goes on in XLA's thread pool. The marker shows whether the interpreter's
+# teardown ran after the command: the C++ destructors it runs under that compiling thread aborted
+# about half of such runs (SIGABRT or SIGSEGV, after the interrupt's line); the marker makes every
+# such exit visible, crashing or not.
+_MID_COMPILE = """
+import atexit, os, signal, sys, threading, time
+from jax import monitoring
+
+started, sent = [], []
+def event(name, **_):
+    if name == "/jax/compilation_cache/compile_requests_use_cache":
+        started.append(time.monotonic())
+def duration(name, _seconds, **_):
+    if name == "/jax/core/compile/backend_compile_duration":
+        started.clear()
+def watch():
+    while not sent:
+        time.sleep(0.005)
+        since = list(started)
+        if since and time.monotonic() - since[0] > 0.3:
+            sent.append(1)
+            os.kill(os.getpid(), signal.SIGINT)
+monitoring.register_event_listener(event)
+monitoring.register_event_duration_secs_listener(duration)
+threading.Thread(target=watch, daemon=True).start()
+atexit.register(lambda: os.write(2, b"(the interpreter's teardown ran)\\n"))
+sys.argv = ["tofjax", *sys.argv[1:]]
+from tofjax.cli import entry_point
+entry_point()
+"""
+
+
+def test_ctrl_c_while_jax_compiles_is_one_line_and_exit_status_130(tmp_path):
+    """Issue 49 item 9: `record` interrupted before its first point, while JAX compiled (a cold cache),
+    printed its line and then aborted (exit status 134 or 139) in the interpreter's teardown."""
+    out = tmp_path / "v.csv"
+    env = {**os.environ, "JAX_PLATFORMS": "cpu", "TOFJAX_CACHE_DIR": "off"}
+    proc = subprocess.run([sys.executable, "-c", _MID_COMPILE, *RECORD, "--out", str(out)], env=env,
+                          capture_output=True, text=True, timeout=120)
+    if proc.returncode == 0:
+        pytest.skip("no compilation of the recording lasted 0.3 s on this machine")
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stderr.strip() == "tofjax: interrupted before the first point was measured; nothing was recorded", \
+        proc.stderr
+    assert not out.exists() or sf.read_sweep(out, allow_empty=True).n_rows == 0
