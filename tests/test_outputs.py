@@ -124,6 +124,70 @@ def test_a_render_folder_is_replaced_as_a_whole(tmp_path, capsys):
     assert not [p for p in tmp_path.iterdir() if ".partial-" in p.name]
 
 
+# Spellings of a measurement that the reader reads (issue 49 item 10): each once replaced by
+# --overwrite alone, the recogniser comparing the first line's bytes with "# format: tofjax-sweep/"
+# (a byte-order mark it already skipped).
+SPELLINGS = {
+    "no blank after #": lambda t: t.replace("# format:", "#format:", 1),
+    "blank before #": lambda t: " " + t,
+    "tab after #": lambda t: t.replace("# format:", "#\tformat:", 1),
+    "no blank after format:": lambda t: t.replace("# format: ", "# format:", 1),
+    "CR line ends": lambda t: t.replace("\n", "\r"),
+}
+
+
+def _spelt(path: Path, spelling: str) -> bytes:
+    """A 3-row measurement spelt ``spelling``, which the reader reads as one."""
+    text = _measurement(path).decode()
+    path.write_bytes(SPELLINGS[spelling](text).encode("utf-8"))
+    data = sf.read_sweep(path)
+    assert data.metadata["source"] == "measurement" and data.n_rows == 3
+    return path.read_bytes()
+
+
+@pytest.mark.parametrize("spelling", SPELLINGS)
+def test_a_measurement_is_recognised_however_the_reader_reads_it(tmp_path, capsys, spelling):
+    out = tmp_path / "lts.csv"
+    before = _spelt(out, spelling)
+    assert outputs.is_measurement(out) and "holds 3 measured points" in outputs.describe(out)
+    code, captured = _run(["config", "--out", out, "--overwrite"], capsys)
+    assert code == 2 and "a measurement is replaced only with --force-replace-measurement" in _error(captured)
+    assert out.read_bytes() == before
+
+
+def test_every_writer_refuses_a_measurement_spelt_otherwise(tmp_path, capsys):
+    """simulate --out, a render or report folder holding one, and the explorer's Export CSV."""
+    out = tmp_path / "lts.csv"
+    before = _spelt(out, "CR line ends")
+    code, captured = _run(["simulate", "--sweep", "distance", "--samples", "3", "--out", out, "--overwrite"], capsys)
+    assert code == 2 and "--force-replace-measurement" in _error(captured) and out.read_bytes() == before
+    folder = tmp_path / "report"  # a folder tofjax wrote, holding the measurement among its files
+    with outputs.OutputDir(folder, "tofjax simulate") as staged:
+        staged.file("sweep.csv").write_bytes(before)
+    for args in (["simulate", "--sweep", "distance", "--report", folder],
+                 ["render", "--scene", "wall", "--out", folder]):
+        code, captured = _run([*args, "--overwrite"], capsys)
+        assert code == 2 and f"{folder} holds the measurement sweep.csv" in _error(captured)
+    assert (folder / "sweep.csv").read_bytes() == before
+    from types import SimpleNamespace
+
+    from tofjax._explorer_state import ExplorerState
+
+    state = ExplorerState(folder=tmp_path)
+    state.run, state.figures = SimpleNamespace(sweep=SimpleNamespace(variable="distance")), {"snr": None}
+    target = tmp_path / "distance_snr.csv"  # what Export CSV of the snr plot writes
+    target.write_bytes(before)
+
+    def export(overwrite=False):
+        return state.write_plots("camera.toml", ["snr"], "csv", lambda path, _fig: outputs.write_text(path, "x"),
+                                 overwrite, export)
+
+    assert export()[1].text.startswith("distance_snr.csv exists: press Overwrite")
+    written, message = state.confirm()  # the Overwrite button
+    assert written is None and message.error and "holds 3 measured points" in message.text
+    assert target.read_bytes() == before
+
+
 # -- atomic files -----------------------------------------------------------------------------------
 def test_a_failed_write_leaves_the_previous_file_and_no_partial_file(tmp_path):
     path = tmp_path / "sweep.csv"

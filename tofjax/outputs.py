@@ -27,12 +27,14 @@ file tofjax did not write is refused even with ``--overwrite`` (it could be the 
 
 from __future__ import annotations
 
+import codecs
 import contextlib
 import ctypes
 import ctypes.util
 import datetime as _dt
 import json
 import os
+import re
 import secrets
 import shutil
 from collections.abc import Iterator
@@ -169,21 +171,67 @@ def save_figure(fig, path: str | os.PathLike, **savefig_kwargs) -> Path:
 # --- what an existing output holds ---------------------------------------------------------------
 
 
+#: The first line of a tofjax-sweep file, as :func:`tofjax.sweepfile.parse_sweep` reads it and as
+#: rule 3 recognises a measurement by it (one pattern for both, so that no file the reader takes for
+#: a sweep file escapes the protection): ``# format: NAME/VERSION``, the blanks around the words free
+#: (``#format:tofjax-sweep/1``, `` # format: ...``, a tab), matched on the stripped line.
+SWEEP_FORMAT_LINE = re.compile(r"#\s*format:\s*(\S+)")
+
+
+def sweep_format(first_line: str) -> str | None:
+    """The format a sweep file's first line names (``tofjax-sweep/4``), or ``None`` if the line names
+    none (:data:`SWEEP_FORMAT_LINE`; a byte-order mark before it is the caller's to remove)."""
+    match = SWEEP_FORMAT_LINE.fullmatch(first_line.strip())
+    return match.group(1) if match else None
+
+
+def _text_lines(fh, chunk: int = 1 << 20) -> Iterator[str]:
+    """The lines of the binary file ``fh`` as ``str.splitlines`` splits its text (the reader's split:
+    ``\n``, ``\r\n``, a lone ``\r`` and the other line ends), decoded as UTF-8 with undecodable
+    bytes replaced, read in chunks so that a big file is never held whole."""
+    decoder = codecs.getincrementaldecoder("utf-8")("replace")
+    rest = ""
+    while True:
+        data = fh.read(chunk)
+        text = rest + decoder.decode(data, final=not data)
+        if not data:
+            yield from text.splitlines()
+            return
+        lines = text.splitlines(keepends=True)
+        last = lines[-1] if lines else ""
+        ended = last.splitlines()[0] != last if last else True  # the last piece ends with a line end
+        # The last piece may be cut short by the chunk, or end in the "\r" of a "\r\n": kept for the next.
+        rest = lines.pop() if lines and (not ended or last.endswith("\r")) else ""
+        for line in lines:
+            yield line.splitlines()[0]
+
+
 def _sweep_header(path: Path) -> tuple[dict[str, str], int] | None:
     """A tofjax-sweep file's metadata and number of data rows (``None``: not such a file); reads
-    the lines without checking their values (a big file costs one pass over its bytes)."""
+    the lines without checking their values (a big file costs one pass over its bytes).
+
+    As lenient as the reader or more (rule 3 must never miss a file the reader reads): a byte-order
+    mark, any line ends, the first line as :func:`sweep_format` takes it, any version of the format,
+    metadata lines with blanks before their ``#``, and a ``source`` line in any case; a file with
+    two ``source`` lines counts as a measurement if either says so."""
     try:
         with open(path, "rb") as fh:
-            first = fh.readline(4096)
-            if not first.lstrip(b"\xef\xbb\xbf").startswith(b"# format: tofjax-sweep/"):
+            lines = _text_lines(fh)
+            version = sweep_format(next(lines, "").removeprefix("\ufeff"))
+            if version is None or not version.lower().startswith("tofjax-sweep/"):
                 return None
             meta: dict[str, str] = {}
-            line = fh.readline()
-            while line.startswith(b"#"):
-                key, _, value = line[1:].decode("utf-8", "replace").partition(":")
-                meta[key.strip()] = value.strip()
-                line = fh.readline()
-            rows = sum(1 for raw in fh if raw.strip())  # after the header row
+            for line in lines:
+                text = line.strip()
+                if not text:
+                    continue
+                if not text.startswith("#"):
+                    break  # the header row
+                key, _, value = text[1:].partition(":")
+                key, value = key.strip().lower(), value.strip()
+                if not (key == "source" and meta.get("source") == "measurement"):
+                    meta[key] = value.lower() if key == "source" else value
+            rows = sum(1 for raw in lines if raw.strip())  # after the header row
             return meta, rows
     except OSError:
         return None

@@ -76,6 +76,7 @@ from typing import IO
 import numpy as np
 
 from ._schema import EXPOSURE_DEFINITIONS, FUSIONS, OPERATING_POINT_COLUMNS, SWEEP_AXES, SWEEPS
+from .outputs import sweep_format
 
 FORMAT_NAME = "tofjax-sweep"
 FORMAT_VERSION = 4
@@ -275,9 +276,7 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>", *, allow_empty:
     """Parse the text of a sweep file (see the module docstring for the format). ``allow_empty``
     accepts a file with a header and no rows yet (a recording that has just started)."""
     lines = text.splitlines()
-    first = lines[0].strip() if lines else ""
-    match = re.fullmatch(r"#\s*format:\s*(\S+)", first)
-    version = match.group(1) if match else None
+    version = sweep_format(lines[0]) if lines else None  # the pattern rule 3 recognises a measurement by
     if version not in FORMATS:
         if version is not None and version.startswith(FORMAT_NAME + "/"):
             raise SweepFileError(path, 1, 1, f"unsupported format version {version!r}: this tofjax reads "
