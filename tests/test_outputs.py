@@ -188,6 +188,31 @@ def test_every_writer_refuses_a_measurement_spelt_otherwise(tmp_path, capsys):
     assert target.read_bytes() == before
 
 
+def test_long_names_are_written_or_refused_before_any_work(tmp_path, capsys, monkeypatch):
+    """Issue 49 item 12: a legal name of 230-255 bytes failed with "File name too long" once the
+    temporary name added its characters (a traceback from render, compare and the explorer's
+    save); a name longer than the file system allows raised OSError; --out . ran, then failed."""
+    legal = tmp_path / ("r" * 250)
+    assert _run(["config", "--out", f"{legal}.toml"], capsys)[0] == 0
+    assert "[scene]" in Path(f"{legal}.toml").read_text()
+    with outputs.OutputDir(legal, "tofjax render") as folder:  # render's, compare's, calibrate's folder
+        outputs.write_text(folder.file("report.html"), "<html></html>")
+    assert (legal / "report.html").is_file() and not [p for p in tmp_path.iterdir() if ".partial-" in p.name]
+    too_long = tmp_path / ("m" * 300 + ".toml")
+    code, captured = _run(["config", "--out", too_long], capsys)
+    assert code == 2 and "the name is 305 bytes long: this file system allows at most 255 bytes" in _error(captured)
+    code, captured = _run(["simulate", "--sweep", "distance", "--report", tmp_path / ("d" * 256) / "x"], capsys)
+    assert code == 2 and "is 256 bytes long" in _error(captured)
+    # An output folder named . (or a folder above it) cannot be swapped in whole: refused first.
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    monkeypatch.chdir(empty)
+    for out in (".", ".."):
+        code, captured = _run(["render", "--scene", "wall", "--frames", "2", "--out", out], capsys)
+        assert code == 2 and f"--out {out}: " in _error(captured) and "the working directory" in _error(captured)
+    assert list(empty.iterdir()) == []
+
+
 # -- atomic files -----------------------------------------------------------------------------------
 def test_a_failed_write_leaves_the_previous_file_and_no_partial_file(tmp_path):
     path = tmp_path / "sweep.csv"
@@ -397,6 +422,7 @@ def test_ctrl_c_while_jax_compiles_is_one_line_and_exit_status_130(tmp_path):
     printed its line and then aborted (exit status 134 or 139) in the interpreter's teardown."""
     out = tmp_path / "v.csv"
     env = {**os.environ, "JAX_PLATFORMS": "cpu", "TOFJAX_CACHE_DIR": "off"}
+    env.pop("XLA_FLAGS", None)  # a user's compilation, not the suite's quicker one (tests/conftest.py)
     proc = subprocess.run([sys.executable, "-c", _MID_COMPILE, *RECORD, "--out", str(out)], env=env,
                           capture_output=True, text=True, timeout=120)
     if proc.returncode == 0:
