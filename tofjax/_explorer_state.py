@@ -191,7 +191,8 @@ class ExplorerState:
     # --- files --------------------------------------------------------------------------------
     def resolve(self, text: str) -> Path | Message:
         """The file ``text`` names inside :attr:`folder` (relative, or absolute inside it), or why not:
-        a path outside it, or a name the file system cannot hold."""
+        a path outside it, a folder (the folder itself, ``.``, would put the plots and the report
+        beside it, in its parent), or a name the file system cannot hold."""
         text = text.strip()
         if not text:
             return Message("give a file name in the path box", True)
@@ -204,6 +205,9 @@ class ExplorerState:
         if target != self.folder and self.folder not in target.parents:
             return Message(f"{text}: the explorer reads and writes files only in {self.folder} (its folder, chosen "
                            "when it started)", True)
+        if target.is_dir():
+            return Message(f"{text}: is a folder, not a file: give the name of a file in {self.folder} (e.g. "
+                           "camera.toml)", True)
         return target
 
     def unless_overwriting(self, targets: list[Path], action: Callable, overwrite: bool) -> Message | None:
