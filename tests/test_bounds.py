@@ -41,6 +41,23 @@ def test_bound_columns_are_read_with_their_statements():
      r"spec\.csv:8:70: bound column depth_error_m_le needs its source: a metadata line \"# bound.depth_error_m_le: "),
     (lambda t: t.replace("1.0,0.001,0,,0.001,0.005", "1.0,0.001,0,,-0.001,0.005"),
      r"spec\.csv:11:14: column depth_std_m_lt = -0.001 is out of range: allowed value >= 0"),
+    # Issue 49 item 16: each was read with exit status 0 and the bound it states checked nowhere.
+    (lambda t: t.replace(",depth_error_m_le\n", "\n").replace(",\n", "\n").replace(",0.005\n", "\n"),
+     r"spec\.csv:8:3: metadata bound\.depth_error_m_le states a bound, but the header \(line 9\) has no column "
+     r"depth_error_m_le"),
+    (lambda t: t.replace("depth_error_m_le", "depth_error_m_lte"),
+     r"spec\.csv:9:70: column depth_error_m_lte has a bound statement \(line 8\) but is not a bound: a bound column is "
+     r"named <quantity>_<relation> .* \(did you mean \"depth_error_m_le\"\?\)"),
+    (lambda t: t.replace("depth_error_m_le", "depth_error_m_lte").replace("specification", "measurement"),
+     r"spec\.csv:9:70: column depth_error_m_lte has a bound statement \(line 8\) but is not a bound"),
+    (lambda t: t.replace("depth_std_m_lt", "depth_noise_m_lt"),
+     r"spec\.csv:9:55: column depth_noise_m_lt has a bound statement \(line 7\) but is not a bound: .* \(did you "
+     r"mean \"depth_std_m_lt\"\?\)"),
+    (lambda t: t.replace("depth_error_m_le", "depth_err_m_le").replace("# bound.depth_err_m_le: 'accuracy +-5 mm', "
+                                                                       "the same datasheet\n", ""),
+     r"spec\.csv:8:70: column depth_err_m_le is neither a bound nor a column of a specification"),
+    (lambda t: t.replace(",0.001,", ",,"),
+     r"spec\.csv:9:55: bound column depth_std_m_lt has no value in any row"),
 ])
 def test_bad_bound_files_are_refused_with_file_line_and_column(edit, message):
     with pytest.raises(sf.SweepFileError, match=message):

@@ -49,6 +49,34 @@ def test_files_stay_in_the_folder_and_an_existing_one_waits_for_a_confirmation(t
     assert message == Message(f"loaded {tmp_path.resolve() / 'camera.toml'}")
 
 
+def test_the_path_box_names_a_file_in_the_folder_never_the_folder_itself(tmp_path):
+    """Issue 49 item 13: "." or the folder's own path put the plots, the CSV and the report beside the
+    folder, in its parent."""
+    from types import SimpleNamespace
+
+    folder = tmp_path / "work"
+    (folder / "sub").mkdir(parents=True)
+    state = ExplorerState(folder=folder)
+    for text in (".", str(folder), "sub", f"{folder}/sub/.."):
+        message = state.resolve(text)
+        assert message == Message(f"{text}: is a folder, not a file: give the name of a file in {folder.resolve()} "
+                                  "(e.g. camera.toml)", True), message
+    state.run, state.figures = SimpleNamespace(sweep=SimpleNamespace(variable="distance")), {"snr": None}
+    written, message = state.write_plots(".", ["snr"], "png", lambda path, _fig: path.write_text("x"), False, None)
+    assert written is None and message.error and sorted(p.name for p in tmp_path.iterdir()) == ["work"]
+
+
+def test_a_long_file_name_is_saved_or_refused_in_one_line(tmp_path):
+    """Issue 49 item 12: a legal 250-character name failed ("File name too long": its temporary name
+    is longer); a name longer than the file system allows raised OSError out of Save."""
+    state = ExplorerState(folder=tmp_path)
+    name = "c" * 245 + ".toml"
+    assert state.save(name, False, None) == Message(f"saved {tmp_path.resolve() / name}")
+    message = state.save("c" * 300 + ".toml", False, None)
+    assert message.error and "the name is 305 bytes long: this file system allows at most 255" in message.text
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]
+
+
 def test_a_run_is_stale_once_the_settings_differ(tmp_path):
     state = ExplorerState(tj.config_from_dict({"scene": {"samples": 5}}), folder=tmp_path)
     assert state.check_calculate(False, -1) == Message("seed = -1 is out of range: allowed integer >= 0", True)

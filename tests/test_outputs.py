@@ -124,6 +124,95 @@ def test_a_render_folder_is_replaced_as_a_whole(tmp_path, capsys):
     assert not [p for p in tmp_path.iterdir() if ".partial-" in p.name]
 
 
+# Spellings of a measurement that the reader reads (issue 49 item 10): each once replaced by
+# --overwrite alone, the recogniser comparing the first line's bytes with "# format: tofjax-sweep/"
+# (a byte-order mark it already skipped).
+SPELLINGS = {
+    "no blank after #": lambda t: t.replace("# format:", "#format:", 1),
+    "blank before #": lambda t: " " + t,
+    "tab after #": lambda t: t.replace("# format:", "#\tformat:", 1),
+    "no blank after format:": lambda t: t.replace("# format: ", "# format:", 1),
+    "CR line ends": lambda t: t.replace("\n", "\r"),
+}
+
+
+def _spelt(path: Path, spelling: str) -> bytes:
+    """A 3-row measurement spelt ``spelling``, which the reader reads as one."""
+    text = _measurement(path).decode()
+    path.write_bytes(SPELLINGS[spelling](text).encode("utf-8"))
+    data = sf.read_sweep(path)
+    assert data.metadata["source"] == "measurement" and data.n_rows == 3
+    return path.read_bytes()
+
+
+@pytest.mark.parametrize("spelling", SPELLINGS)
+def test_a_measurement_is_recognised_however_the_reader_reads_it(tmp_path, capsys, spelling):
+    out = tmp_path / "lts.csv"
+    before = _spelt(out, spelling)
+    assert outputs.is_measurement(out) and "holds 3 measured points" in outputs.describe(out)
+    code, captured = _run(["config", "--out", out, "--overwrite"], capsys)
+    assert code == 2 and "a measurement is replaced only with --force-replace-measurement" in _error(captured)
+    assert out.read_bytes() == before
+
+
+def test_every_writer_refuses_a_measurement_spelt_otherwise(tmp_path, capsys):
+    """simulate --out, a render or report folder holding one, and the explorer's Export CSV."""
+    out = tmp_path / "lts.csv"
+    before = _spelt(out, "CR line ends")
+    code, captured = _run(["simulate", "--sweep", "distance", "--samples", "3", "--out", out, "--overwrite"], capsys)
+    assert code == 2 and "--force-replace-measurement" in _error(captured) and out.read_bytes() == before
+    folder = tmp_path / "report"  # a folder tofjax wrote, holding the measurement among its files
+    with outputs.OutputDir(folder, "tofjax simulate") as staged:
+        staged.file("sweep.csv").write_bytes(before)
+    for args in (["simulate", "--sweep", "distance", "--report", folder],
+                 ["render", "--scene", "wall", "--out", folder]):
+        code, captured = _run([*args, "--overwrite"], capsys)
+        assert code == 2 and f"{folder} holds the measurement sweep.csv" in _error(captured)
+    assert (folder / "sweep.csv").read_bytes() == before
+    from types import SimpleNamespace
+
+    from tofjax._explorer_state import ExplorerState
+
+    state = ExplorerState(folder=tmp_path)
+    state.run, state.figures = SimpleNamespace(sweep=SimpleNamespace(variable="distance")), {"snr": None}
+    target = tmp_path / "distance_snr.csv"  # what Export CSV of the snr plot writes
+    target.write_bytes(before)
+
+    def export(overwrite=False):
+        return state.write_plots("camera.toml", ["snr"], "csv", lambda path, _fig: outputs.write_text(path, "x"),
+                                 overwrite, export)
+
+    assert export()[1].text.startswith("distance_snr.csv exists: press Overwrite")
+    written, message = state.confirm()  # the Overwrite button
+    assert written is None and message.error and "holds 3 measured points" in message.text
+    assert target.read_bytes() == before
+
+
+def test_long_names_are_written_or_refused_before_any_work(tmp_path, capsys, monkeypatch):
+    """Issue 49 item 12: a legal name of 230-255 bytes failed with "File name too long" once the
+    temporary name added its characters (a traceback from render, compare and the explorer's
+    save); a name longer than the file system allows raised OSError; --out . ran, then failed."""
+    legal = tmp_path / ("r" * 250)
+    assert _run(["config", "--out", f"{legal}.toml"], capsys)[0] == 0
+    assert "[scene]" in Path(f"{legal}.toml").read_text()
+    with outputs.OutputDir(legal, "tofjax render") as folder:  # render's, compare's, calibrate's folder
+        outputs.write_text(folder.file("report.html"), "<html></html>")
+    assert (legal / "report.html").is_file() and not [p for p in tmp_path.iterdir() if ".partial-" in p.name]
+    too_long = tmp_path / ("m" * 300 + ".toml")
+    code, captured = _run(["config", "--out", too_long], capsys)
+    assert code == 2 and "the name is 305 bytes long: this file system allows at most 255 bytes" in _error(captured)
+    code, captured = _run(["simulate", "--sweep", "distance", "--report", tmp_path / ("d" * 256) / "x"], capsys)
+    assert code == 2 and "is 256 bytes long" in _error(captured)
+    # An output folder named . (or a folder above it) cannot be swapped in whole: refused first.
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    monkeypatch.chdir(empty)
+    for out in (".", ".."):
+        code, captured = _run(["render", "--scene", "wall", "--frames", "2", "--out", out], capsys)
+        assert code == 2 and f"--out {out}: " in _error(captured) and "the working directory" in _error(captured)
+    assert list(empty.iterdir()) == []
+
+
 # -- atomic files -----------------------------------------------------------------------------------
 def test_a_failed_write_leaves_the_previous_file_and_no_partial_file(tmp_path):
     path = tmp_path / "sweep.csv"
@@ -292,3 +381,53 @@ def test_ctrl_c_is_one_line_and_exit_status_130(tmp_path):
     assert proc.returncode == 130, err
     assert err.strip() == (f"tofjax: interrupted after {rows} of 8 points; every completed point is in {out}; "
                            "continue with --resume"), err
+
+
+# The tofjax command in a process that sends itself SIGINT once a compilation (a persistent-cache
+# request not yet ended by its backend compile) has run 0.3 s: the Ctrl-C lands inside jaxlib's wait
+# for the compilation, which goes on in XLA's thread pool. The marker shows whether the interpreter's
+# teardown ran after the command: the C++ destructors it runs under that compiling thread aborted
+# about half of such runs (SIGABRT or SIGSEGV, after the interrupt's line); the marker makes every
+# such exit visible, crashing or not.
+_MID_COMPILE = """
+import atexit, os, signal, sys, threading, time
+from jax import monitoring
+
+started, sent = [], []
+def event(name, **_):
+    if name == "/jax/compilation_cache/compile_requests_use_cache":
+        started.append(time.monotonic())
+def duration(name, _seconds, **_):
+    if name == "/jax/core/compile/backend_compile_duration":
+        started.clear()
+def watch():
+    while not sent:
+        time.sleep(0.005)
+        since = list(started)
+        if since and time.monotonic() - since[0] > 0.3:
+            sent.append(1)
+            os.kill(os.getpid(), signal.SIGINT)
+monitoring.register_event_listener(event)
+monitoring.register_event_duration_secs_listener(duration)
+threading.Thread(target=watch, daemon=True).start()
+atexit.register(lambda: os.write(2, b"(the interpreter's teardown ran)\\n"))
+sys.argv = ["tofjax", *sys.argv[1:]]
+from tofjax.cli import entry_point
+entry_point()
+"""
+
+
+def test_ctrl_c_while_jax_compiles_is_one_line_and_exit_status_130(tmp_path):
+    """Issue 49 item 9: `record` interrupted before its first point, while JAX compiled (a cold cache),
+    printed its line and then aborted (exit status 134 or 139) in the interpreter's teardown."""
+    out = tmp_path / "v.csv"
+    env = {**os.environ, "JAX_PLATFORMS": "cpu", "TOFJAX_CACHE_DIR": "off"}
+    env.pop("XLA_FLAGS", None)  # a user's compilation, not the suite's quicker one (tests/conftest.py)
+    proc = subprocess.run([sys.executable, "-c", _MID_COMPILE, *RECORD, "--out", str(out)], env=env,
+                          capture_output=True, text=True, timeout=120)
+    if proc.returncode == 0:
+        pytest.skip("no compilation of the recording lasted 0.3 s on this machine")
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stderr.strip() == "tofjax: interrupted before the first point was measured; nothing was recorded", \
+        proc.stderr
+    assert not out.exists() or sf.read_sweep(out, allow_empty=True).n_rows == 0

@@ -22,7 +22,7 @@ from . import plots
 from ._config import Config, config_from_dict, load_config
 from ._run import run_sweep, sweep_file_contents
 from ._schema import ConfigError, Key
-from .outputs import OutputDir, OutputError, check_output, save_figure, write_text
+from .outputs import OutputDir, OutputError, check_output, name_problem, save_figure, shown_path, write_text
 from .report import Summary
 
 #: The resolution of saved PNGs.
@@ -190,15 +190,24 @@ class ExplorerState:
 
     # --- files --------------------------------------------------------------------------------
     def resolve(self, text: str) -> Path | Message:
-        """The file ``text`` names inside :attr:`folder` (relative, or absolute inside it), or why not."""
+        """The file ``text`` names inside :attr:`folder` (relative, or absolute inside it), or why not:
+        a path outside it, a folder (the folder itself, ``.``, would put the plots and the report
+        beside it, in its parent), or a name the file system cannot hold."""
         text = text.strip()
         if not text:
             return Message("give a file name in the path box", True)
         target = Path(text).expanduser()
-        target = (target if target.is_absolute() else self.folder / target).resolve()
+        target = target if target.is_absolute() else self.folder / target
+        problem = name_problem(target)
+        if problem:
+            return Message(f"{shown_path(text)}: {problem}; choose a shorter name", True)
+        target = target.resolve()
         if target != self.folder and self.folder not in target.parents:
             return Message(f"{text}: the explorer reads and writes files only in {self.folder} (its folder, chosen "
                            "when it started)", True)
+        if target.is_dir():
+            return Message(f"{text}: is a folder, not a file: give the name of a file in {self.folder} (e.g. "
+                           "camera.toml)", True)
         return target
 
     def unless_overwriting(self, targets: list[Path], action: Callable, overwrite: bool) -> Message | None:

@@ -108,6 +108,10 @@ def output_dir(path: Path, command: str, args=None):
     return OutputDir(path, command, replace=bool(getattr(args, "overwrite", False)))
 
 
+#: The exit status of an interrupted command (Ctrl-C): 128 + SIGINT, as a shell reports it.
+INTERRUPTED = 130
+
+
 #: What the command has kept so far, for the line an interrupt (Ctrl-C) prints (:func:`on_interrupt`).
 _interrupt_note: str | None = None
 
@@ -428,7 +432,7 @@ def _run(args) -> int:
         return _simulate(args)
     except KeyboardInterrupt:
         print("tofjax: interrupted" + (f" {_interrupt_note}" if _interrupt_note else ""), file=sys.stderr, flush=True)
-        return 130
+        return INTERRUPTED
     except CommandError as err:
         print(f"tofjax: error: {err}", file=sys.stderr)
         return err.exit_code
@@ -441,19 +445,29 @@ def _run(args) -> int:
 #: interpreter's teardown (:func:`entry_point`). ``record`` is not among them: it may hold a stage.
 QUICK_EXIT = ("simulate", "config", "render", "compare", "calibrate")
 
-
 def entry_point() -> None:  # pragma: no cover - thin wrapper for the console script
     """The ``tofjax`` command: :func:`main`'s status. After a command that holds no device, the process
     ends at once when its output is flushed: every file it wrote is complete and renamed into place
     by then (:mod:`tofjax.outputs`), and the interpreter's teardown (JAX's backends, the compiled
-    programs, every module) took 0.4-0.6 s of a 6 s warm calibration."""
+    programs, every module) took 0.4-0.6 s of a 6 s warm calibration.
+
+    An interrupted command (status 130, ``record`` included) ends the same way, because a Ctrl-C
+    that lands while JAX compiles leaves the compilation running: jaxlib waits for it in a way that
+    checks for signals, so the ``KeyboardInterrupt`` comes out of that wait while XLA's thread pool
+    goes on compiling (LLVM code generation). An ordinary exit then runs the C++ static destructors
+    (LLVM's among them) under that thread, which aborted the process after the interrupt's line
+    (``terminate called after throwing an instance of 'std::system_error'``, ``free(): invalid
+    pointer``, ``LLVM ERROR``: exit status 134 or 139). By then the command has printed its line
+    and closed its files and devices (``record``'s ``finally``), so nothing is left for the teardown
+    to do."""
     code = main()
-    if len(sys.argv) > 1 and sys.argv[1] in QUICK_EXIT:
+    if code == INTERRUPTED or (len(sys.argv) > 1 and sys.argv[1] in QUICK_EXIT):
         try:
             sys.stdout.flush()
             sys.stderr.flush()
-        except OSError:  # a closed pipe: the ordinary exit reports it
-            sys.exit(code)
+        except OSError:  # a closed pipe: the ordinary exit reports it (not while a compilation may run)
+            if code != INTERRUPTED:
+                sys.exit(code)
         os._exit(code)
     sys.exit(code)
 

@@ -27,12 +27,15 @@ file tofjax did not write is refused even with ``--overwrite`` (it could be the 
 
 from __future__ import annotations
 
+import codecs
 import contextlib
 import ctypes
 import ctypes.util
 import datetime as _dt
+import hashlib
 import json
 import os
+import re
 import secrets
 import shutil
 from collections.abc import Iterator
@@ -51,17 +54,66 @@ class OutputError(ValueError):
     one line naming the file and what to do. Commands turn it into exit status 2."""
 
 
+def _limit(directory: Path, name: str, default: int) -> int:
+    """The file system's ``PC_NAME_MAX`` or ``PC_PATH_MAX`` at ``directory`` (or its nearest existing
+    parent), in bytes; ``default`` where it does not say."""
+    for folder in (directory, *directory.parents):
+        try:
+            return int(os.pathconf(folder, name))
+        except FileNotFoundError:
+            continue
+        except (OSError, ValueError):
+            break
+    return default
+
+
+def _name_max(directory: Path) -> int:
+    return _limit(directory, "PC_NAME_MAX", 255)
+
+
+def _shortened(name: str, room: int) -> str:
+    """``name``, or where its bytes exceed ``room``, its beginning and a hash of the whole name (so
+    that two long names sharing a beginning stay apart)."""
+    raw = os.fsencode(name)
+    if len(raw) <= room:
+        return name
+    digest = hashlib.sha1(raw).hexdigest()[:8]
+    return raw[: max(room - 9, 1)].decode("utf-8", "ignore") + "~" + digest
+
+
+#: Room a temporary name adds around an output's name: ``.NAME.replaced-<pid>-<6 hex>`` with a pid of
+#: up to 10 digits (the same for every process and both kinds, so that a stale one is found again).
+_PARTIAL_ROOM = len(".") + len(".replaced-") + 10 + len("-") + 6
+
+
+def _partial_stem(path: Path) -> str:
+    """The part of ``path``'s temporary names that stands for its name: the name itself, or where the
+    temporary name would exceed the file system's limit (a legal name of 230-255 bytes), the name
+    shortened (:func:`_shortened`): the output keeps its own name, only its temporary one is short."""
+    return _shortened(path.name, _name_max(path.parent) - _PARTIAL_ROOM)
+
+
+def _beside(path: Path, tag: str, *, keep_suffix: bool = True) -> Path:
+    """``NAME-<tag>.SUFFIX`` beside ``path`` (a result kept beside an output that appeared meanwhile;
+    a folder: ``NAME-<tag>``), the name shortened to fit the file system's limit."""
+    stem, suffix = (path.stem, path.suffix) if keep_suffix else (path.name, "")
+    room = _name_max(path.parent) - len(os.fsencode(f"-{tag}{suffix}"))
+    return path.with_name(f"{_shortened(stem, room)}-{tag}{suffix}")
+
+
 def _partial_name(path: Path, kind: str = "partial") -> Path:
     _remove_stale_partials(path)
-    return path.parent / f".{path.name}.{kind}-{os.getpid()}-{secrets.token_hex(3)}"
+    return path.parent / f".{_partial_stem(path)}.{kind}-{os.getpid()}-{secrets.token_hex(3)}"
 
 
 def _remove_stale_partials(path: Path) -> None:
     """Remove the partial outputs of runs that were killed (their process is gone): a killed run
     cannot clean up after itself. ``.replaced-`` leftovers (an earlier output moved aside) are kept:
     they may be the only copy of it."""
+    import glob
+
     with contextlib.suppress(OSError):
-        for old in path.parent.glob(f".{path.name}.partial-*-*"):
+        for old in path.parent.glob(f".{glob.escape(_partial_stem(path))}.partial-*-*"):
             try:
                 pid = int(old.name.rsplit("-", 2)[-2])
                 os.kill(pid, 0)
@@ -96,7 +148,7 @@ def _commit(tmp: Path, path: Path, replace: bool) -> Path:
         os.link(tmp, path)
     except FileExistsError:
         stamp = _dt.datetime.now(_dt.UTC).strftime("%Y%m%dT%H%M%S")
-        kept = path.with_name(f"{path.stem}-{stamp}-{secrets.token_hex(2)}{path.suffix}")
+        kept = _beside(path, f"{stamp}-{secrets.token_hex(2)}")
         os.replace(tmp, kept)
         raise OutputError(f"{path} appeared while this run was writing it (another run?): it is left as it is, and "
                           f"this run's output is kept as {kept}") from None
@@ -169,21 +221,67 @@ def save_figure(fig, path: str | os.PathLike, **savefig_kwargs) -> Path:
 # --- what an existing output holds ---------------------------------------------------------------
 
 
+#: The first line of a tofjax-sweep file, as :func:`tofjax.sweepfile.parse_sweep` reads it and as
+#: rule 3 recognises a measurement by it (one pattern for both, so that no file the reader takes for
+#: a sweep file escapes the protection): ``# format: NAME/VERSION``, the blanks around the words free
+#: (``#format:tofjax-sweep/1``, `` # format: ...``, a tab), matched on the stripped line.
+SWEEP_FORMAT_LINE = re.compile(r"#\s*format:\s*(\S+)")
+
+
+def sweep_format(first_line: str) -> str | None:
+    """The format a sweep file's first line names (``tofjax-sweep/4``), or ``None`` if the line names
+    none (:data:`SWEEP_FORMAT_LINE`; a byte-order mark before it is the caller's to remove)."""
+    match = SWEEP_FORMAT_LINE.fullmatch(first_line.strip())
+    return match.group(1) if match else None
+
+
+def _text_lines(fh, chunk: int = 1 << 20) -> Iterator[str]:
+    """The lines of the binary file ``fh`` as ``str.splitlines`` splits its text (the reader's split:
+    ``\n``, ``\r\n``, a lone ``\r`` and the other line ends), decoded as UTF-8 with undecodable
+    bytes replaced, read in chunks so that a big file is never held whole."""
+    decoder = codecs.getincrementaldecoder("utf-8")("replace")
+    rest = ""
+    while True:
+        data = fh.read(chunk)
+        text = rest + decoder.decode(data, final=not data)
+        if not data:
+            yield from text.splitlines()
+            return
+        lines = text.splitlines(keepends=True)
+        last = lines[-1] if lines else ""
+        ended = last.splitlines()[0] != last if last else True  # the last piece ends with a line end
+        # The last piece may be cut short by the chunk, or end in the "\r" of a "\r\n": kept for the next.
+        rest = lines.pop() if lines and (not ended or last.endswith("\r")) else ""
+        for line in lines:
+            yield line.splitlines()[0]
+
+
 def _sweep_header(path: Path) -> tuple[dict[str, str], int] | None:
     """A tofjax-sweep file's metadata and number of data rows (``None``: not such a file); reads
-    the lines without checking their values (a big file costs one pass over its bytes)."""
+    the lines without checking their values (a big file costs one pass over its bytes).
+
+    As lenient as the reader or more (rule 3 must never miss a file the reader reads): a byte-order
+    mark, any line ends, the first line as :func:`sweep_format` takes it, any version of the format,
+    metadata lines with blanks before their ``#``, and a ``source`` line in any case; a file with
+    two ``source`` lines counts as a measurement if either says so."""
     try:
         with open(path, "rb") as fh:
-            first = fh.readline(4096)
-            if not first.lstrip(b"\xef\xbb\xbf").startswith(b"# format: tofjax-sweep/"):
+            lines = _text_lines(fh)
+            version = sweep_format(next(lines, "").removeprefix("\ufeff"))
+            if version is None or not version.lower().startswith("tofjax-sweep/"):
                 return None
             meta: dict[str, str] = {}
-            line = fh.readline()
-            while line.startswith(b"#"):
-                key, _, value = line[1:].decode("utf-8", "replace").partition(":")
-                meta[key.strip()] = value.strip()
-                line = fh.readline()
-            rows = sum(1 for raw in fh if raw.strip())  # after the header row
+            for line in lines:
+                text = line.strip()
+                if not text:
+                    continue
+                if not text.startswith("#"):
+                    break  # the header row
+                key, _, value = text[1:].partition(":")
+                key, value = key.strip().lower(), value.strip()
+                if not (key == "source" and meta.get("source") == "measurement"):
+                    meta[key] = value.lower() if key == "source" else value
+            rows = sum(1 for raw in lines if raw.strip())  # after the header row
             return meta, rows
     except OSError:
         return None
@@ -234,14 +332,52 @@ def _nonempty(path: Path) -> bool:
     return path.exists() and path.stat().st_size > 0
 
 
+def _abbreviated(name: str, width: int = 60) -> str:
+    return name if len(name) <= width else f"{name[: width // 2 - 2]}...{name[-(width // 2 - 1):]}"
+
+
+def name_problem(path: str | os.PathLike) -> str | None:
+    """Why the file system cannot hold a file named ``path`` (a name longer than its ``NAME_MAX``,
+    255 bytes on most, or a path longer than its ``PATH_MAX``), or ``None``: checked before any work,
+    where an ``OSError: File name too long`` would otherwise end the run."""
+    path = Path(path)
+    absolute = Path(os.path.abspath(path))
+    for i, part in enumerate(path.parts):
+        size, most = len(os.fsencode(part)), _name_max(absolute.parent)
+        if part != path.anchor and size > most:
+            which = "the name" if i == len(path.parts) - 1 else f"the folder name {_abbreviated(part)!r}"
+            return f"{which} is {size} bytes long: this file system allows at most {most} bytes per name"
+    size, most = len(os.fsencode(str(absolute))), _limit(absolute.parent, "PC_PATH_MAX", 4096)
+    if size >= most:
+        return f"the path is {size} bytes long: this file system allows less than {most}"
+    return None
+
+
+def shown_path(path: str | os.PathLike) -> str:
+    """``path`` for a message: a name too long to read whole shortened in the middle."""
+    path = Path(path)
+    return str(Path(*[_abbreviated(part) for part in path.parts])) if path.parts else str(path)
+
+
 def check_output(path: str | os.PathLike, option: str, *, overwrite: bool = False, force_measurement: bool = False,
                  resume_option: str | None = None, directory: bool = False) -> None:
     """Before any work: may ``path`` be written? Raises :class:`OutputError` naming ``option``:
-    a file where a directory is meant (or the reverse); an existing non-empty output without
-    ``overwrite`` (the message says what it holds and offers ``resume_option`` if the command has
-    one); a measurement without ``force_measurement`` (rule 3); a directory with files tofjax did
-    not write (:class:`OutputDir`). Then makes the parent directory and proves it writable."""
+    a name the file system cannot hold (:func:`name_problem`); an output directory that is the
+    working directory or holds it (it is replaced as a whole, :class:`OutputDir`); a file where a
+    directory is meant (or the reverse); an existing non-empty output without ``overwrite`` (the
+    message says what it holds and offers ``resume_option`` if the command has one); a
+    measurement without ``force_measurement`` (rule 3); a directory with files tofjax did not
+    write (:class:`OutputDir`). Then makes the parent directory and proves it writable."""
     path = Path(path)
+    problem = name_problem(path)
+    if problem:
+        raise OutputError(f"{option} {shown_path(path)}: {problem}; choose a shorter name")
+    if directory:
+        here, target = Path.cwd().resolve(), path.resolve()
+        if target == here or target in here.parents:
+            raise OutputError(f"{option} {path}: {'is' if target == here else 'holds'} the working directory, "
+                              "which an output folder cannot replace (it is built beside its place and swapped in "
+                              f"whole): name a new folder inside it, e.g. {option} out")
     if directory and path.exists() and not path.is_dir():
         raise OutputError(f"{option} {path}: is a file, not a directory")
     if not directory and path.is_dir():
@@ -332,7 +468,7 @@ class OutputDir:
     ``PATH-<time>``, with :class:`OutputError` saying so."""
 
     def __init__(self, path: str | os.PathLike, command: str, *, replace: bool = False):
-        self.path = Path(path)
+        self.path = Path(os.path.abspath(path))  # a name to swap (".", "a/.." have none of their own)
         self.command = command
         self.replace = replace
         self.staging = _partial_name(self.path)
@@ -374,7 +510,7 @@ class OutputDir:
             os.rename(self.staging, path)  # over an empty directory: allowed, atomic
         elif not self.replace:
             stamp = _dt.datetime.now(_dt.UTC).strftime("%Y%m%dT%H%M%S")
-            kept = path.with_name(f"{path.name}-{stamp}-{secrets.token_hex(2)}")
+            kept = _beside(path, f"{stamp}-{secrets.token_hex(2)}", keep_suffix=False)
             os.rename(self.staging, kept)
             raise OutputError(f"{path} appeared while this run was writing it (another run?): it is left as it is, "
                               f"and this run's output is kept as {kept}")

@@ -42,7 +42,11 @@ Layout (UTF-8)::
   is the bound at that row's operating point (a bound stated relative to the distance, "<= 1 % of
   the distance", is written out per row; an empty cell: no bound at that row), so that ranges
   ("over 0.5-4 m") are the rows the file has. Every bound column needs a metadata line
-  ``# bound.<column>: ...`` quoting the statement and naming its document. The conditions it was
+  ``# bound.<column>: ...`` quoting the statement and naming its document; every such line names a
+  bound column the file has, and every bound column has a value at some row (a bound that is
+  stated is checked). A ``source: specification`` file has no column but the operating point,
+  ``n_frames``, the measured quantities (:data:`SPECIFICATION_COLUMNS`) and bounds: another name is
+  a misspelt one. The conditions it was
   stated under are the file's other metadata: configuration keys (``# scene.reflectivity: 0.9``,
   ``# illumination_waveform.modulation_frequency_hz: 100000000``) and free text (``# conditions:``).
   A version-4 file may hold bounds and no measured values, and may say ``source: specification``
@@ -76,6 +80,7 @@ from typing import IO
 import numpy as np
 
 from ._schema import EXPOSURE_DEFINITIONS, FUSIONS, OPERATING_POINT_COLUMNS, SWEEP_AXES, SWEEPS
+from .outputs import sweep_format
 
 FORMAT_NAME = "tofjax-sweep"
 FORMAT_VERSION = 4
@@ -275,9 +280,7 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>", *, allow_empty:
     """Parse the text of a sweep file (see the module docstring for the format). ``allow_empty``
     accepts a file with a header and no rows yet (a recording that has just started)."""
     lines = text.splitlines()
-    first = lines[0].strip() if lines else ""
-    match = re.fullmatch(r"#\s*format:\s*(\S+)", first)
-    version = match.group(1) if match else None
+    version = sweep_format(lines[0]) if lines else None  # the pattern rule 3 recognises a measurement by
     if version not in FORMATS:
         if version is not None and version.startswith(FORMAT_NAME + "/"):
             raise SweepFileError(path, 1, 1, f"unsupported format version {version!r}: this tofjax reads "
@@ -326,6 +329,7 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>", *, allow_empty:
             raise SweepFileError(path, header_line, _column(lines[i], j),
                                  f'bound column {name} needs its source: a metadata line "# bound.{name}: ..." quoting '
                                  "the statement and naming its document")
+    _check_bound_names(path, metadata, meta_lines, lines, header, header_line)
     axis_column = SWEEP_AXES[metadata["sweep"]].column
     if axis_column not in header:
         raise SweepFileError(path, header_line, None, f"missing required column {axis_column}: the file's sweep is "
@@ -364,10 +368,70 @@ def parse_sweep(text: str, path: str | os.PathLike = "<string>", *, allow_empty:
     if not rows and not allow_empty:
         raise SweepFileError(path, len(lines) + 1, None, "no data rows")
     data = np.array(rows, dtype=float).reshape(len(rows), len(header))
+    for j, name in enumerate(header):  # a stated bound is checked: it has a value at some row
+        if rows and bound_column(name) and np.all(np.isnan(data[:, j])):
+            raise SweepFileError(path, header_line, _column(lines[header_line - 1], j),
+                                 f"bound column {name} has no value in any row: a bound is checked at the rows that "
+                                 f"give it (an empty cell: no bound at that row); give its values, or remove the column "
+                                 f"and its bound.{name} line")
     columns = {name: data[:, j] for j, name in enumerate(header)}
     for name in REQUIRED_COLUMNS:  # absent (version 2): not measured
         columns.setdefault(name, np.full(len(rows), np.nan))
     return SweepData(metadata, columns, str(path), np.array(row_lines), {name: j + 1 for j, name in enumerate(header)})
+
+
+#: The columns a specification (``source: specification``, format 4) may have besides its bounds:
+#: the operating point, the frames and the observables (what a comparison reads). Any other column
+#: of a specification is refused: nothing would read it, so it is a misspelt bound or quantity.
+SPECIFICATION_COLUMNS = (*REQUIRED_COLUMNS, *V3_COLUMNS)
+#: Every name a bound column may have (:func:`bound_column`).
+BOUND_COLUMNS = tuple(f"{q}_{r}" for q in BOUND_QUANTITIES for r in BOUND_RELATIONS)
+_BOUND_FORM = (f"a bound column is named <quantity>_<relation> (quantity {', '.join(BOUND_QUANTITIES)}; relation "
+               f"{', '.join(BOUND_RELATIONS)})")
+
+
+#: Relations as other notations spell them (``depth_std_m_lte``) -> this format's.
+_RELATION_ALIASES = {"lte": "le", "leq": "le", "max": "le", "gte": "ge", "geq": "ge", "min": "ge"}
+
+
+def _did_you_mean(name: str, names) -> str:
+    import difflib
+
+    quantity, _, relation = name.rpartition("_")
+    if quantity in BOUND_QUANTITIES and relation in _RELATION_ALIASES:
+        return f' (did you mean "{quantity}_{_RELATION_ALIASES[relation]}"?)'
+    close = difflib.get_close_matches(name, list(names), n=1, cutoff=0.6)
+    return f' (did you mean "{close[0]}"?)' if close else ""
+
+
+def _check_bound_names(path, metadata: Mapping[str, str], meta_lines: Mapping[str, int], lines: list[str],
+                       header: list[str], header_line: int) -> None:
+    """Every bound a file states is one it checks: each ``# bound.<column>:`` line names a bound
+    column (:func:`bound_column`) that the header has, and a specification has no column that is
+    neither a bound nor one of :data:`SPECIFICATION_COLUMNS` (a mistyped bound, ``depth_std_m_lte``
+    or ``depth_noise_m_le``, was read as an unknown column and checked nowhere)."""
+    header_text = lines[header_line - 1]
+    for key in sorted((k for k in metadata if k.startswith("bound.")), key=lambda k: meta_lines[k]):
+        name, line = key.removeprefix("bound."), meta_lines[key]
+        where = lines[line - 1].find("bound.") + 1
+        if not bound_column(name):
+            if name in header:
+                raise SweepFileError(path, header_line, _column(header_text, header.index(name)),
+                                     f"column {name} has a bound statement (line {line}) but is not a bound: "
+                                     f"{_BOUND_FORM}{_did_you_mean(name, BOUND_COLUMNS)}")
+            raise SweepFileError(path, line, where, f"metadata {key} names no bound column: "
+                                                    f"{_BOUND_FORM}{_did_you_mean(name, BOUND_COLUMNS)}")
+        if name not in header:
+            raise SweepFileError(path, line, where, f"metadata {key} states a bound, but the header (line {header_line}) "
+                                                    f"has no column {name}: add the column with the bound at each row "
+                                                    "it applies to, or remove the line")
+    if metadata.get("source") == "specification":
+        for j, name in enumerate(header):
+            if name not in SPECIFICATION_COLUMNS and not bound_column(name):
+                raise SweepFileError(path, header_line, _column(header_text, j),
+                                     f"column {name} is neither a bound nor a column of a specification (allowed "
+                                     f"{', '.join(SPECIFICATION_COLUMNS)}, and bounds): {_BOUND_FORM}"
+                                     f"{_did_you_mean(name, BOUND_COLUMNS + SPECIFICATION_COLUMNS)}")
 
 
 def _looks_numeric(cell: str) -> bool:
