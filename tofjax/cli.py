@@ -445,6 +445,7 @@ def _run(args) -> int:
 #: interpreter's teardown (:func:`entry_point`). ``record`` is not among them: it may hold a stage.
 QUICK_EXIT = ("simulate", "config", "render", "compare", "calibrate")
 
+
 def entry_point() -> None:  # pragma: no cover - thin wrapper for the console script
     """The ``tofjax`` command: :func:`main`'s status. After a command that holds no device, the process
     ends at once when its output is flushed: every file it wrote is complete and renamed into place
