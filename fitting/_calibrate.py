@@ -246,7 +246,7 @@ def _hard_at(problem: Problem, theta) -> list[tuple]:
     out = []
     for group in problem.groups:
         obs = hard_observables(problem.with_values(group.params, jnp.asarray(theta)), group.model_sweep(dense=False),
-                               group.frequencies_hz, group.fusion)  # host arrays
+                               group.frequencies_hz, group.fusion, group.processing)  # host arrays
         out += [(i, slice(*bounds), obs) for i, bounds in zip(group.files, group.bounds, strict=True)]
     return out
 

@@ -166,7 +166,7 @@ def compare_measurement(m: Measurement) -> FileComparison:
     dense = dense_sweep(m.sweep, DENSE_POINTS)
     params, lux_scale = under_common_lamp(m.config.params)
     sweep = _rows_and_dense(m, dense, lux_scale)
-    obs = hard_observables(params, sweep, tuple(m.frequencies_hz), m.fusion)  # host arrays
+    obs = hard_observables(params, sweep, tuple(m.frequencies_hz), m.fusion, m.processing)  # host arrays
     n = m.data.n_rows
 
     def get(name: str, part: str) -> np.ndarray:  # the data rows, or the dense points after them

@@ -70,6 +70,8 @@ class SweepRows:
     #: Every modulation frequency of the measurement, and how the camera fused them.
     frequencies_hz: tuple[float, ...] = ()
     fusion: str = "inverse_variance"
+    #: The camera's own processing stages (``[processing]``, :mod:`tofjax.processing`).
+    processing: tuple = ()
     #: Row index -> why the row does not enter the fit.
     reasons: dict[int, str] = dataclasses.field(default_factory=dict)
     #: 1-based line of each row in the file.
@@ -121,7 +123,7 @@ def _overrides(path: str, metadata: dict[str, str], config: tj.Config, columns) 
 class Measurement:
     """A sweep file checked against the configuration: its data, its columns with the integration
     times per phase image, the camera it was taken with, its operating points, its frequencies and
-    their fusion."""
+    their fusion, and its own processing (``[processing]``)."""
 
     path: str
     data: sf.SweepData
@@ -130,6 +132,11 @@ class Measurement:
     sweep: tj.Sweep
     frequencies_hz: tuple[float, ...]
     fusion: str
+
+    @property
+    def processing(self) -> tuple:
+        """The camera's processing stages (:attr:`tofjax.Config.processing`)."""
+        return self.config.processing
 
 
 def read_measurement(path: str | Path, config: tj.Config) -> Measurement:
@@ -239,4 +246,4 @@ def load_rows(path: str | Path, config: tj.Config, *, relative_error: float | No
         raise CalibrationInputError(f"{path}: no row enters the fit ({excluded['saturated']} saturated, "
                                     f"{excluded['low_snr']} below the amplitude SNR {min_snr:g}, the rest not measured)")
     return SweepRows(path, data.sweep, file_config, m.sweep, out, frames, excluded, data.n_rows, m.frequencies_hz,
-                     m.fusion, reasons, data.lines, dict(data.metadata))
+                     m.fusion, m.processing, reasons, data.lines, dict(data.metadata))

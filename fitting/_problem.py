@@ -93,15 +93,17 @@ class Observables(eqx.Module):
 
 
 def observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str,
-                smooth: tj.Smooth | None) -> Observables:
+                smooth: tj.Smooth | None, processing: tuple = ()) -> Observables:
     """:class:`Observables` of one camera: :func:`tofjax.predict`, or
-    :func:`tofjax.predict` of a multi-frequency camera for several frequencies (its fused depth noise)."""
+    :func:`tofjax.predict` of a multi-frequency camera for several frequencies (its fused depth noise);
+    ``processing``: the camera's own processing stages (what it delivers)."""
     if len(frequencies_hz) < 2:
-        r = tj.predict(params, sweep, smooth=smooth)
+        r = tj.predict(tj.Camera(params, smooth=smooth, processing=processing), sweep)
         return Observables(r.amplitude_mean_lsb, r.amplitude_std_lsb, r.depth_mean_m, r.depth_std_m,
                            r.valid_fraction, r.pixel_saturated_fraction, r.adc_saturated_fraction, r.caveats,
                            r.headroom, r.unambiguity_range_m)
-    m = tj.predict(tj.Camera(params, smooth=smooth, frequencies_hz=frequencies_hz, fusion=fusion), sweep)
+    m = tj.predict(tj.Camera(params, smooth=smooth, frequencies_hz=frequencies_hz, fusion=fusion,
+                             processing=processing), sweep)
     p = m.per_frequency
     caveats = p.caveats[0]
     for k in range(1, len(frequencies_hz)):
@@ -117,7 +119,8 @@ def observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float,
 HARD_BUCKET = 256
 
 
-def hard_observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str) -> Observables:
+def hard_observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str,
+                     processing: tuple = ()) -> Observables:
     """:func:`observables` of the hard model (no relaxation), compiled: what the camera can measure.
     ``sweep`` is 1-D; it runs padded to a multiple of :data:`HARD_BUCKET` points (copies of its last
     one), and the result (host arrays) has its own points only."""
@@ -125,13 +128,14 @@ def hard_observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[f
     extra = -n % HARD_BUCKET
     pad = lambda x: np.concatenate([np.asarray(x), np.repeat(np.asarray(x)[-1:], extra)])  # noqa: E731
     padded = tj.Sweep.points(sweep.variable, *(pad(getattr(sweep, name)) for name in OPERATING_POINT_COLUMNS))
-    obs = jax.device_get(_hard_observables(params, padded, frequencies_hz, fusion))
+    obs = jax.device_get(_hard_observables(params, padded, frequencies_hz, fusion, processing))
     return jax.tree_util.tree_map(lambda x: x[:n] if np.ndim(x) else x, obs)  # the period: one number
 
 
 @tj.jit
-def _hard_observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str) -> Observables:
-    return observables(params, sweep, frequencies_hz, fusion, None)
+def _hard_observables(params: tj.Params, sweep: tj.Sweep, frequencies_hz: tuple[float, ...], fusion: str,
+                      processing: tuple = ()) -> Observables:
+    return observables(params, sweep, frequencies_hz, fusion, None, processing)
 
 
 class FileGroup(eqx.Module):
@@ -141,7 +145,8 @@ class FileGroup(eqx.Module):
     group; ``params`` the camera; ``sweep`` the concatenated operating points, the data rows first
     (``n_data`` of them), then :data:`DENSE_POINTS` dense points per file; ``values`` and ``masks``
     per observable, and ``frames``, over the data rows; ``frequencies_hz`` and ``fusion`` the
-    files' modulation frequencies and how their camera fused them (static); ``lamp_scale`` per point
+    files' modulation frequencies and how their camera fused them (static); ``processing`` the
+    camera's own processing stages; ``lamp_scale`` per point
     of ``sweep``, the ratio that restates a file's illuminance in lux of ``params``' lamp (module
     docstring; 1 for files under that lamp). ``sweep`` holds the files' own values (the figures' x);
     :meth:`model_sweep` the rescaled ones.
@@ -158,6 +163,7 @@ class FileGroup(eqx.Module):
     masks: tuple[Array, ...]
     frames: Array
     lamp_scale: Array  # per point of ``sweep``: k_L / k_0 of its file's lamp (1 under the group's lamp)
+    processing: tuple = ()
 
     def model_sweep(self, dense: bool = True) -> tj.Sweep:
         """The operating points the model runs at: the files' own, each file's illuminance in lux
@@ -233,7 +239,8 @@ def _groups(rows: list[SweepRows], merge_lamps: bool = True) -> tuple[FileGroup,
         for group in members:
             first = rows[group[0][0]]
             scale = _lamp_scale(first.params, r.params, merge_lamps) if (
-                (first.frequencies_hz, first.fusion) == (r.frequencies_hz, r.fusion)) else None
+                (first.frequencies_hz, first.fusion) == (r.frequencies_hz, r.fusion)
+                and eqx.tree_equal(first.processing, r.processing) is True) else None
             if scale is not None:
                 group.append((i, scale))
                 break
@@ -258,7 +265,7 @@ def _groups(rows: list[SweepRows], merge_lamps: bool = True) -> tuple[FileGroup,
             values=tuple(cat([np.where(rows[i].data[o][1], rows[i].data[o][0], 0.0) for i in group]) for o in OBSERVABLES),
             masks=tuple(cat([rows[i].data[o][1] for i in group]) for o in OBSERVABLES),
             frames=cat([np.asarray(rows[i].frames, dtype=float) for i in group]),
-            lamp_scale=cat(scales)))
+            lamp_scale=cat(scales), processing=rows[group[0]].processing))
     return tuple(groups)
 
 
@@ -351,7 +358,7 @@ class Problem(eqx.Module):
         """The model of ``group``'s camera at ``theta`` (smooth mode) on its data rows, and with
         ``dense`` also on its dense points (after the data rows)."""
         return observables(self.with_values(group.params, theta), group.model_sweep(dense), group.frequencies_hz,
-                           group.fusion, self.smooth)
+                           group.fusion, self.smooth, group.processing)
 
     def _rows(self, r: Observables, group: FileGroup):
         """Per observable (:data:`~fitting._data.OBSERVABLES`), (model, uncertainty) on the data rows of
