@@ -18,10 +18,14 @@ frequency reports wrapped depths); with several frequencies, whose camera claims
 range, such a row is also flagged ``wrapped`` (a wrong unwrap).
 
 A file's bounds (format 4: a datasheet's promise, "temporal noise < 1 mm up to 5.5 m", written per
-row, :func:`tofjax.sweepfile.bound_column`) are checked against the same model: each row's bound is
-met or not, with its margin (bound minus model for an upper bound, model minus bound for a lower
-one; positive where met). A row the model cannot measure (saturated) does not meet a bound on its
-depth: the specification promises a depth there.
+row, :func:`tofjax.sweepfile.bound_column`) are checked against the same model, judged as the camera
+would be: each row's bound is met or not, with its margin (bound minus model for an upper bound,
+model minus bound for a lower one; positive where met). The depth error is the camera's reading
+(wrapped into its unambiguity range, or unwrapped by its own frequencies over their extended range)
+minus the true distance: a camera of one frequency beyond its range reads short by the range, and
+meets no accuracy bound there. A row the model cannot measure (saturated), and a row whose phase
+noise makes the reading a guess (the low-SNR caveat: a phase noise above 0.5 rad, where the depth
+wraps in many frames), meets no bound on its depth: the specification promises a depth there.
 
 Outputs (:func:`write_comparison`): ``comparison.csv`` (every row), ``comparison.md`` (per-file
 summary and table), ``comparison.html`` (the same with the figures embedded), one PNG per file and,
@@ -87,12 +91,16 @@ class BoundCheck:
                 "margin": float(self.margin[worst]), "model_over_bound": float(ratio)}
 
 
-def check_bounds(data, model: dict[str, np.ndarray], distance_m: np.ndarray) -> list[BoundCheck]:
+def check_bounds(data, model: dict[str, np.ndarray], distance_m: np.ndarray, reading_m: np.ndarray,
+                 guess: np.ndarray) -> list[BoundCheck]:
     """Every bound column of a sweep file (``data``: :class:`tofjax.sweepfile.SweepData`) against the
-    model's per-row values (``model``: :data:`_QUANTITIES`, the expected depth already continued to the
-    period nearest the true distance)."""
-    values = {"depth_std_m": model["depth_std_m"], "amplitude_mean_lsb": model["amplitude_mean_lsb"],
-              "depth_error_m": np.abs(model["depth_mean_m"] - distance_m)}
+    model's per-row values (``model``: :data:`_QUANTITIES`), judged as the camera would be (module
+    docstring): the depth error is ``reading_m`` (the camera's expected reading) minus the true
+    ``distance_m``, and a row where ``guess`` (its phase noise makes the reading a guess) meets no
+    depth bound."""
+    nan_if_guess = lambda x: np.where(guess, np.nan, x)  # noqa: E731
+    values = {"depth_std_m": nan_if_guess(model["depth_std_m"]), "amplitude_mean_lsb": model["amplitude_mean_lsb"],
+              "depth_error_m": nan_if_guess(np.abs(reading_m - distance_m))}
     out = []
     for column in data.bounds:
         quantity, relation = bound_column(column)
@@ -217,7 +225,8 @@ def compare_measurement(m: Measurement) -> FileComparison:
                                 "amplitude_mean_lsb": get("amplitude_mean_lsb", "dense"),
                                 "amplitude_std_lsb": get("amplitude_std_lsb", "dense"),
                                 "distance_m": dense["distance_m"]},
-        bounds=check_bounds(m.data, model, truth))
+        bounds=check_bounds(m.data, model, truth, get("depth_mean_m", "rows"),
+                            (caveats & tj.schema.CAVEAT_LOW_SNR) != 0))
 
 
 def compare(paths, config: tj.Config | None = None) -> list[FileComparison]:

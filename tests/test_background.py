@@ -153,3 +153,20 @@ def test_the_background_electrons_follow_the_response_through_the_chain_with_a_g
     h = 1e-8
     fd = (noise(20e-6 + h) - noise(20e-6 - h)) / (2 * h)
     np.testing.assert_allclose(jax.grad(noise)(20e-6), fd, rtol=1e-5)
+
+
+def test_the_responsivity_and_the_collection_depth_must_agree():
+    """QE(lambda) = QE(lambda_0) q(lambda) stays <= 1 only if QE(lambda_0) <= 1 - exp(-alpha(lambda_0) d):
+    0.23 A/W at 850 nm (QE 0.335) needs d of at least 7.6 um; a shallower depth is refused in one line
+    naming both keys, in the configuration and in the module."""
+    import pytest
+
+    table_m, alpha = bg.silicon_absorption_per_m()
+    a = np.exp(np.interp(850e-9, table_m, np.log(alpha)))
+    assert -np.expm1(-a * 7.6e-6) == pytest.approx(0.334, abs=0.001)  # just short of QE 0.335
+    with pytest.raises(tofjax.ConfigError, match=r"pixel.photo_responsivity_a_per_w = 0.23 \(quantum efficiency 0.335 "
+                                                  r".*pixel.collection_depth_m = 7.6e-06 absorbs there \(0.334\)"):
+        tofjax.config_from_dict({"pixel": {"collection_depth_m": 7.6e-6}})
+    tofjax.config_from_dict({"pixel": {"collection_depth_m": 7.7e-6}})
+    with pytest.raises(ValueError, match=r"allowed 0 < value <= 0.06944 A/W, or a deeper collection depth"):
+        tofjax.Params(pixel=tofjax.Pixel(collection_depth_m=2e-6))

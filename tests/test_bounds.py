@@ -92,7 +92,8 @@ def test_met_and_margin_follow_the_relation_at_the_boundary():
     checks = {b.column: b for b in check_bounds(_data({"depth_std_m_le": bound, "depth_std_m_lt": bound,
                                                        "amplitude_mean_lsb_ge": [50, 50, 50, 50],
                                                        "amplitude_mean_lsb_gt": [50, 50, 50, 50],
-                                                       "depth_error_m_lt": [5e-3, 5e-3, 5e-3, 5e-3]}), model, truth)}
+                                                       "depth_error_m_lt": [5e-3, 5e-3, 5e-3, 5e-3]}), model, truth,
+                                                model["depth_mean_m"], np.zeros(4, bool))}
     np.testing.assert_array_equal(checks["depth_std_m_le"].met, [True, True, False, False])
     np.testing.assert_array_equal(checks["depth_std_m_lt"].met, [True, False, False, False])
     np.testing.assert_allclose(checks["depth_std_m_le"].margin[:2], [1e-3, 0.0], atol=1e-15)
@@ -106,6 +107,24 @@ def test_met_and_margin_follow_the_relation_at_the_boundary():
     s = checks["depth_error_m_lt"].summary()
     assert (s["rows"], s["met"], s["worst"]) == (4, 3, 3)
     assert s["margin"] == pytest.approx(-5e-3) and s["model_over_bound"] == pytest.approx(2.0)
+
+
+def test_depth_bounds_are_judged_on_the_cameras_reading():
+    """A camera of one frequency (1.87 m range) reads 2.5 m as 0.63 m: no accuracy bound is met there,
+    however close the distance continued to the nearest period; a row whose phase is a guess (the
+    low-SNR caveat) meets no depth bound, but its amplitude bound stands."""
+    model = {"depth_std_m": np.array([1e-3, 1e-3, 1e-3]), "amplitude_mean_lsb": np.array([100.0, 100.0, 100.0]),
+             "depth_mean_m": np.array([1.0, 2.5, 3.0])}  # as if continued to the nearest period
+    truth = np.array([1.0, 2.5, 3.0])
+    reading = np.array([1.0, 2.5 - 1.8662, 3.0])
+    guess = np.array([False, False, True])
+    checks = {b.column: b for b in check_bounds(_data({"depth_std_m_le": [2e-3] * 3, "depth_error_m_lt": [5e-3] * 3,
+                                                       "amplitude_mean_lsb_ge": [50] * 3}), model, truth, reading,
+                                                guess)}
+    np.testing.assert_array_equal(checks["depth_error_m_lt"].met, [True, False, False])
+    assert checks["depth_error_m_lt"].model[1] == pytest.approx(1.8662)
+    np.testing.assert_array_equal(checks["depth_std_m_le"].met, [True, True, False])
+    np.testing.assert_array_equal(checks["amplitude_mean_lsb_ge"].met, [True, True, True])
 
 
 def test_calibration_refuses_a_file_of_bounds_only(tmp_path):

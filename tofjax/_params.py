@@ -277,7 +277,8 @@ class Params(eqx.Module):
     constants: PhysicalConstants = eqx.field(default_factory=PhysicalConstants)
 
     def __check_init__(self):
-        check_quantum_efficiency(self.pixel.photo_responsivity_a_per_w, self.illumination.wavelength_m)
+        check_quantum_efficiency(self.pixel.photo_responsivity_a_per_w, self.illumination.wavelength_m,
+                                 self.pixel.collection_depth_m)
 
     @property
     def unambiguity_range_m(self) -> Array:

@@ -565,10 +565,14 @@ def check_less(a_name: str, a, b_name: str, b) -> None:
         raise ValueError(f"{a_name} = {_fmt(a)} must be less than {b_name} = {_fmt(b)}")
 
 
-def check_quantum_efficiency(responsivity, wavelength) -> None:
+def check_quantum_efficiency(responsivity, wavelength, collection_depth=0.0) -> None:
     """Responsivity may not exceed the ideal-detector limit e*lambda/(h*c) (quantum efficiency 1,
-    thesis Eq 3.16)."""
-    if _is_tracer(responsivity) or _is_tracer(wavelength):
+    thesis Eq 3.16). With a collection depth d > 0 the quantum efficiency elsewhere is QE(lambda_0)
+    q(lambda) (``tofjax._background.relative_response``), which stays at most 1 at every wavelength
+    only if QE(lambda_0) is at most the fraction 1 - exp(-alpha(lambda_0) d) that depth absorbs
+    (q(lambda) reaches 1 / that fraction where silicon absorbs everything within d): the responsivity
+    and the collection depth must agree."""
+    if _is_tracer(responsivity) or _is_tracer(wavelength) or _is_tracer(collection_depth):
         return
     import numpy as np
 
@@ -578,6 +582,21 @@ def check_quantum_efficiency(responsivity, wavelength) -> None:
             f"pixel.photo_responsivity_a_per_w = {_fmt(responsivity)} implies a quantum efficiency above 1 at "
             f"illumination.wavelength_m = {_fmt(wavelength)}: allowed 0 < value <= {float(np.max(limit)):.4g} A/W"
         )
+    depth = np.asarray(collection_depth, dtype=float)
+    if np.all(depth == 0.0):
+        return
+    from ._background import silicon_absorption_per_m
+
+    table_m, alpha = silicon_absorption_per_m()
+    a = np.exp(np.interp(np.asarray(wavelength, dtype=float), table_m, np.log(alpha)))
+    absorbed = -np.expm1(-a * depth)
+    if not np.all(np.asarray(responsivity) <= limit * absorbed):
+        qe = float(np.max(np.asarray(responsivity) / limit))
+        raise ValueError(
+            f"pixel.photo_responsivity_a_per_w = {_fmt(responsivity)} (quantum efficiency {qe:.3g} at "
+            f"illumination.wavelength_m = {_fmt(wavelength)}) is more than pixel.collection_depth_m = {_fmt(collection_depth)} "
+            f"absorbs there ({float(np.min(absorbed)):.3g}): the quantum efficiency would exceed 1 at shorter "
+            f"wavelengths; allowed 0 < value <= {float(np.min(limit * absorbed)):.4g} A/W, or a deeper collection depth")
 
 
 def defaults() -> dict[str, dict[str, Any]]:
@@ -656,7 +675,8 @@ def validate(raw: Mapping[str, Any], where: str = "") -> dict[str, dict[str, Any
         raise ConfigError(f"{loc}processing.spatial_filter_size = {size!r} is out of range: allowed an odd integer "
                           "3 <= value <= 7")
     try:
-        check_quantum_efficiency(p["photo_responsivity_a_per_w"], merged["illumination"]["wavelength_m"])
+        check_quantum_efficiency(p["photo_responsivity_a_per_w"], merged["illumination"]["wavelength_m"],
+                                 p["collection_depth_m"])
     except ValueError as err:
         raise ConfigError(f"{loc}{err}") from None
     return merged
