@@ -658,7 +658,13 @@ def test_every_flag_on_a_scene_built_to_trigger_it(params, one_ray):
 
 
 def test_monte_carlo_low_signal_comes_from_the_expected_noise_not_two_frames(params, one_ray):
-    """Two frames of a black wall agree by chance in some pixels: they are flagged all the same."""
+    """Two frames of a black wall agree by chance in some pixels: they are flagged all the same. A pixel
+    that receives no light has no valid frame (its phase is noise alone), in the statistics, in the
+    noisy frames and in the analytic frame."""
     returns = tj.Camera(params, one_ray).returns(scenes.wall(1.0, 0.0))
     frame = tj.simulate(tj.Camera(params, one_ray), returns, jax.random.key(3), 2)
     assert np.all(np.asarray(frame.flags) & FLAG_LOW_SIGNAL) and np.all(np.asarray(frame.flags) & FLAG_NO_RETURN)
+    assert np.all(np.asarray(frame.result.valid_fraction) == 0) and np.all(np.isnan(np.asarray(frame.radial_m)))
+    exposed = tj.Camera(params, one_ray).expose(returns)
+    assert not np.any(np.asarray(exposed.sample(jax.random.key(4), 2).valid))
+    assert np.all(np.asarray(exposed.predict().result.valid_fraction) == 0)

@@ -87,7 +87,8 @@ def analytic(chain: Chain, sweep: Sweep, m: Moments | None = None) -> Result:
     pixel_sat, sbi_on = limit.flags(n_a, n_b)
     pixel_sat = jnp.any(pixel_sat, axis=-1)
     adc_sat = jnp.any(saturated(params.adc, u), axis=-1)
-    valid = ~pixel_sat & ~adc_sat
+    # A point that receives none of the camera's light reads a phase of noise alone: no distance.
+    valid = ~pixel_sat & ~adc_sat & (charges.signal_e > 0.0)
     keep = jnp.ones_like(valid) if readout.temperature_lsb is not None else valid
 
     # Caveats: a limit within the noise, a staircase the noise does not dither, a wrapping phase.

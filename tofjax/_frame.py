@@ -573,7 +573,7 @@ def _sample_prepared(chain, source, key, frames, shape, raw=False) -> NoisyFrame
 
     def one(first):
         f = draw_delivered(chain, source, words, first, chunk, frames_first=True, taps=raw, image=shape)
-        valid = ~f.pixel_saturated & ~f.adc_saturated if f.valid is None else f.valid
+        valid = f.valid
         out = (jnp.where(valid, jnp.mod(f.phase, 2.0 * jnp.pi) * to_m, jnp.nan), f.amplitude, valid)
         # The raw images (phases, frames, points) -> frames first, as the images.
         return out + (tuple(jnp.moveaxis(x, 0, 1) for x in (f.codes, f.tap_a_e, f.tap_b_e)) if raw else ())

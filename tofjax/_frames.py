@@ -57,6 +57,7 @@ class PointConstants(eqx.Module):
     ref_amp: Array  # (points,) amplitude of the noise-free frame
     index: Array  # (points,) uint32 counter word of the point
     full_well_e: Array | None = None  # (points,) each point's own full well (a frame's pixels), else the chain's
+    lit: Array | None = None  # (points,) the pixel receives the camera's light (else no frame of it is valid)
 
     def constants(self, chain: Chain) -> PointConstants:
         """Itself (:class:`PointCharges` makes them)."""
@@ -111,7 +112,7 @@ def point_constants(chain: Chain, charges: TapCharges, index: Array, full_well_e
         sd_fast=t(jnp.sqrt(var_a + var_b + post_a + post_b)), linear=jnp.all(linear, axis=-1),
         sbi_fixed=jnp.any(always, axis=-1), ref_phase=chain.reference_phase(ref.phase), ref_amp=ref.amplitude,
         index=index,
-        full_well_e=full_well_e,
+        full_well_e=full_well_e, lit=charges.signal_e > 0.0,
     )
 
 
@@ -127,7 +128,7 @@ class FrameBatch(eqx.Module):
     sbi_engaged: Array
     tap_a_e: Array | None = None
     tap_b_e: Array | None = None
-    valid: Array | None = None  # delivered (the camera's processing); None: neither pixel nor ADC saturated
+    valid: Array | None = None  # not saturated, lit, and (:func:`draw_delivered`) delivered by its processing
 
 
 def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[Array, Array], first_frame: Array,
@@ -253,8 +254,11 @@ def draw_frames(chain: Chain, source: PointConstants | PointCharges, key: tuple[
         sbi_on = jnp.broadcast_to(jnp.any(engaged, axis=0), shape)
     # The stages after the noise: codes, phase, amplitude.
     frames = chain.samples_of_codes(node) if coded else chain.samples(node)
+    # Valid: neither the pixel nor the ADC saturated, and the pixel receives light (a pixel that sees
+    # none reads a phase of noise alone, which no camera delivers as a distance).
+    valid = ~pixel_sat & ~frames.adc_saturated & per_point(source.constants(chain).lit)
     return FrameBatch(frames.codes, frames.phase, frames.amplitude, pixel_sat, frames.adc_saturated, sbi_on,
-                      tap_a, tap_b)
+                      tap_a, tap_b, valid)
 
 
 def draw_delivered(chain: Chain, source: PointConstants | PointCharges, key: tuple[Array, Array], first_frame: Array,
@@ -284,7 +288,7 @@ def draw_delivered(chain: Chain, source: PointConstants | PointCharges, key: tup
         grid, patch = tuple(image), False
     f = draw_frames(chain, source, key, first_frame * g, n_frames * g, stream, linear, frames_first, taps)
     layout = Layout(frames_first, grid, patch)
-    phase, amplitude, valid = process(stages, f.phase, f.amplitude, ~f.pixel_saturated & ~f.adc_saturated, layout)
+    phase, amplitude, valid = process(stages, f.phase, f.amplitude, f.valid, layout)
     per_frame = (0, 1) if frames_first else (1, 0)  # (frames, points) axes of the per-point arrays
     raw = (1, 2) if frames_first else (2, 1)  # of the (phases, ...) arrays
 
@@ -325,7 +329,7 @@ def reduce_frames(c: PointConstants, f: FrameBatch, counted: Array, frames_first
     """Sums of one chunk (``counted``: frames that belong to the run, broadcast against the batch's
     ``(points, frames)``, or with ``frames_first`` its ``(frames, points)``) and each frame's validity."""
     axis, ref = (-2, lambda x: x[None, :]) if frames_first else (-1, lambda x: x[:, None])
-    valid = ~f.pixel_saturated & ~f.adc_saturated if f.valid is None else f.valid
+    valid = f.valid
     use = valid & counted
     dev = jnp.where(use, wrap(f.phase - ref(c.ref_phase)), 0.0)
     amp = jnp.where(use, f.amplitude - ref(c.ref_amp), 0.0)
