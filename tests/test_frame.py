@@ -513,14 +513,15 @@ def test_render_command_writes_every_output(tmp_path, capsys):
                                rtol=1e-12)
     assert data["raw_modulation_frequencies_hz"].tolist() == [80.32e6] and "Decoding" in str(data["raw_convention"])
     assert data["predicted_std_m"].shape == (ROWS, COLS)
-    good = int(np.sum(data["flags"] == 0))
+    delivered = (data["flags"] & tj.schema.CAMERA_FLAGS) == 0  # the camera's own flags decide (issue 50 item 2)
+    good = int(np.sum(delivered))
     cloud = frameio.read_ply(out / "points.ply")
     assert len(cloud) == good > 0 and cloud["red"].dtype == np.uint8 and cloud["red"].max() > 0
     np.testing.assert_array_equal(cloud["red"], cloud["blue"])  # grey by amplitude
-    # The 16-bit images: Z depth in whole millimetres and amplitude in LSB, 0 where a pixel is not good.
+    # The 16-bit images: Z depth in whole millimetres and amplitude in LSB, 0 where a pixel is not delivered.
     from PIL import Image
 
-    ok = (data["flags"] == 0) & np.isfinite(data["radial_m"])
+    ok = delivered & np.isfinite(data["radial_m"])
     for name, key, scale in (("depth_mm.png", "z_m", 1e3), ("amplitude.png", "amplitude_lsb", 1.0)):
         image = np.asarray(Image.open(out / name))
         assert image.dtype == np.uint16 and image.shape == (ROWS, COLS)
@@ -628,6 +629,8 @@ def test_every_flag_on_a_scene_built_to_trigger_it(params, one_ray):
     columns = np.unique(np.nonzero(flags & 16)[1])
     assert columns.tolist() == [CENTRE[1] + 1] and np.all(flags[:, columns[0]] == FLAG_MIXED)
     assert np.all(np.delete(flags, columns, 1) == 0)
+    assert np.all(np.asarray(frame.delivered))  # the truth's diagnostics never remove a pixel
+    assert len(frame.points_m()) == flags.size
     # The column is the one whose returns come from both surfaces.
     paths = np.asarray(tj.Camera(params, three).returns(scenes.step_edge(1.0, 1.4, x_edge)).path_m)
     both = np.ptp(paths, axis=-1) > 0.5

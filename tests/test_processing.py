@@ -199,6 +199,10 @@ def test_a_frame_with_processing_matches_its_frames_and_delivers_the_edge():
     rejected = a_valid < 0.5
     assert 0 < rejected.sum() < 0.2 * rejected.size  # the edge, not the surfaces
     assert np.all(np.any(rejected, axis=1))  # in every row
+    # The camera's own flag says so, and it alone removes them (the mixed pixels among them: the truth).
+    flags = np.asarray(analytic.flags)
+    np.testing.assert_array_equal((flags & 128) != 0, rejected)
+    np.testing.assert_array_equal(np.asarray(analytic.delivered), ~rejected)
     frames = camera.expose(EDGE).sample(jax.random.key(6), 2)
     assert frames.radial_m.shape == (2,) + rejected.shape
     assert np.isnan(np.asarray(frames.radial_m))[:, rejected].mean() > 0.5

@@ -36,7 +36,6 @@ Sol. Cells 92, 1305 (2008), ``data/silicon_green2008.csv``). d = 0 is the thesis
 from __future__ import annotations
 
 import functools
-from importlib import resources
 
 import jax.numpy as jnp
 import numpy as np
@@ -44,6 +43,7 @@ from jaxtyping import Array, Float
 
 from . import _constants as const
 from ._params import PhysicalConstants
+from ._tables import read_table, silicon_absorption_per_m  # noqa: F401 (silicon_absorption_per_m: public here)
 
 HALOGEN_TEMPERATURE_K = 3200.0
 INCANDESCENT_TEMPERATURE_K = 2856.0
@@ -51,13 +51,6 @@ INCANDESCENT_TEMPERATURE_K = 2856.0
 _C2_M_K = const.PLANCK_J_S * const.SPEED_OF_LIGHT_M_PER_S / const.BOLTZMANN_J_PER_K
 #: Common wavelength grid, m: 280-4000 nm in 0.5 nm steps (the ASTM G173 span).
 _GRID_M = np.arange(280.0, 4000.0 + 0.25, 0.5) * 1e-9
-
-
-def _read_table(name: str) -> tuple[np.ndarray, np.ndarray]:
-    text = resources.files("tofjax").joinpath("data", name).read_text(encoding="utf-8")
-    rows = [line for line in text.splitlines() if line and not line.startswith("#")][1:]
-    data = np.array([[float(x) for x in row.split(",")] for row in rows])
-    return data[:, 0] * 1e-9, data[:, 1]
 
 
 def _planck(wavelength_m: np.ndarray, temperature_k: float) -> np.ndarray:
@@ -74,11 +67,11 @@ def _on_grid(wavelength_m: np.ndarray, values: np.ndarray) -> np.ndarray:
 def spectrum(background: str) -> tuple[np.ndarray, np.ndarray]:
     """The relative spectral irradiance of a background lamp on the common grid (m, arbitrary)."""
     if background == "sunlight":
-        return _GRID_M, _on_grid(*_read_table("astm_g173_global_tilt.csv"))
+        return _GRID_M, _on_grid(*read_table("astm_g173_global_tilt.csv"))
     if background == "fluorescent":
-        return _GRID_M, _on_grid(*_read_table("cie_fl2.csv"))
+        return _GRID_M, _on_grid(*read_table("cie_fl2.csv"))
     if background == "led":
-        return _GRID_M, _exponential_tail(*_read_table("cie_led_b3.csv"))
+        return _GRID_M, _exponential_tail(*read_table("cie_led_b3.csv"))
     if background == "halogen":
         return _GRID_M, _planck(_GRID_M, HALOGEN_TEMPERATURE_K)
     if background == "incandescent":
@@ -90,7 +83,7 @@ def spectrum(background: str) -> tuple[np.ndarray, np.ndarray]:
 @functools.cache
 def photopic_v() -> tuple[np.ndarray, np.ndarray]:
     """CIE 1924 photopic V(lambda) on the common grid."""
-    return _GRID_M, _on_grid(*_read_table("cie_1924_photopic_v.csv"))
+    return _GRID_M, _on_grid(*read_table("cie_1924_photopic_v.csv"))
 
 
 #: The grid's points up to the first beyond silicon's cut-off (the detected part of every spectrum).
@@ -123,14 +116,6 @@ def _tables(background: str) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]
     luminous = float(np.trapezoid(v * e, grid))
     detected = np.where(grid <= const.SILICON_CUTOFF_M, e, 0.0)
     return luminous, _cumtrapz(detected * grid, grid), _cumtrapz(detected, grid), detected * grid
-
-
-@functools.cache
-def silicon_absorption_per_m() -> tuple[np.ndarray, np.ndarray]:
-    """Crystalline silicon's absorption coefficient at 300 K, alpha = 4 pi k / lambda (1/m), on its
-    table's wavelengths (m; Green 2008, module docstring)."""
-    wavelength_m, k = _read_table("silicon_green2008.csv")
-    return wavelength_m, 4.0 * np.pi * k / wavelength_m
 
 
 def relative_response(wavelength_m: Float[Array, "*w"], reference_m: Float[Array, ""], depth_m: Float[Array, ""]

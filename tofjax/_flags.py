@@ -1,6 +1,14 @@
 """The flags of a frame's pixels (:attr:`tofjax.FrameResult.flags`, ``frame.npz``'s ``flags``): one
 bit per reason a pixel's distance should not be trusted. Without JAX, so that readers of a frame's
-files need none."""
+files need none.
+
+Two kinds (issue 50 item 2): what the camera itself knows and acts on (:data:`CAMERA_FLAGS`: it
+saturated, its confidence is too low, its processing invalidated it), which decides whether the
+camera delivers the pixel (:func:`delivered`: the depth PNG, the point cloud, "good pixels"); and
+what only the scene's truth tells (:data:`DIAGNOSTIC_FLAGS`: no return, wrapped, mixed, outside the
+illumination), diagnostics beside the delivered depth that never remove a pixel: a real camera
+delivers a mixed pixel's biased depth, and a wrapped one's aliased depth, unless its own data reject
+it."""
 
 #: Bits of :attr:`tofjax.FrameResult.flags` (0: a good pixel). Saturation is measured (Monte Carlo: in any
 #: frame; analytic: expected); low signal and low amplitude come from the expected (analytic) noise
@@ -13,6 +21,7 @@ FLAG_WRAPPED = 8
 FLAG_MIXED = 16
 FLAG_OUTSIDE_ILLUMINATION = 32
 FLAG_LOW_AMPLITUDE = 64
+FLAG_INVALIDATED = 128
 FLAGS = {
     FLAG_SATURATED: "saturated: the pixel or the ADC saturated (analytic: expected; Monte Carlo: in any frame)",
     FLAG_LOW_SIGNAL: "low signal: the expected phase noise exceeds frame.max_phase_noise_rad (a camera's confidence "
@@ -26,7 +35,19 @@ FLAGS = {
     FLAG_OUTSIDE_ILLUMINATION: "outside the illumination: the illumination's field of view does not reach what the "
                                "pixel sees",
     FLAG_LOW_AMPLITUDE: "low amplitude: the expected amplitude is below frame.min_amplitude_lsb",
+    FLAG_INVALIDATED: "invalidated: the camera's own processing (its amplitude threshold, its flying-pixel filter; "
+                      "[processing]) delivers the pixel in fewer than half its frames (analytic: with probability "
+                      "below 1/2), for no reason its other flags name",
 }
+#: The flags the camera knows from its own data: a pixel with none of them is delivered.
+CAMERA_FLAGS = FLAG_SATURATED | FLAG_LOW_SIGNAL | FLAG_LOW_AMPLITUDE | FLAG_INVALIDATED
+#: The flags only the scene's truth tells: diagnostics beside the delivered depth, never removing it.
+DIAGNOSTIC_FLAGS = FLAG_NO_RETURN | FLAG_WRAPPED | FLAG_MIXED | FLAG_OUTSIDE_ILLUMINATION
+
+
+def delivered(flags):
+    """Whether the camera delivers each pixel of ``flags`` (none of :data:`CAMERA_FLAGS`; NumPy or JAX)."""
+    return (flags & CAMERA_FLAGS) == 0
 
 #: Short names of the bits (``render``'s headline numbers: ``<name>_fraction``).
 FLAG_KEYS = {bit: text.split(":")[0].replace(" ", "_") for bit, text in FLAGS.items()}

@@ -31,8 +31,8 @@ from . import _jit
 from ._analytic import analytic, moments
 from ._chain import Chain, build_chain
 from ._correlation import UNROLLED_RETURNS
-from ._flags import (FLAG_LOW_AMPLITUDE, FLAG_LOW_SIGNAL, FLAG_MIXED, FLAG_NO_RETURN, FLAG_OUTSIDE_ILLUMINATION,
-                     FLAG_SATURATED, FLAG_WRAPPED)
+from ._flags import (FLAG_INVALIDATED, FLAG_LOW_AMPLITUDE, FLAG_LOW_SIGNAL, FLAG_MIXED, FLAG_NO_RETURN,
+                     FLAG_OUTSIDE_ILLUMINATION, FLAG_SATURATED, FLAG_WRAPPED, delivered)
 from ._framegeometry import FrameSettings, frame_shape, lens_distortion, pixel_etendue_m2_sr
 from ._executor import BLOCK_POINTS, equal_parts, execute, frame_chunk_elements, programs
 from ._frames import PointCharges, draw_delivered
@@ -370,20 +370,33 @@ class FrameResult(eqx.Module):
 
     @property
     def flags(self) -> Array:
-        """Bits of :data:`FLAGS` per pixel (int32; 0: a good pixel). Low signal and low amplitude
-        come from the expected noise and amplitude (:class:`FrameQuality`), not from the frames'
-        own spread, which a few frames do not pin down."""
-        q = self.quality
-        saturated = _bit(self.result.valid_fraction < 1.0, FLAG_SATURATED)
-        low = _bit(~(q.expected_phase_std_rad <= q.max_phase_noise_rad), FLAG_LOW_SIGNAL)
-        dim = _bit(q.expected_amplitude_lsb < q.min_amplitude_lsb, FLAG_LOW_AMPLITUDE)
-        return saturated | low | dim | q.scene_flags
+        """Bits of :data:`FLAGS` per pixel (int32; 0: a good pixel with no diagnostic). Low signal and
+        low amplitude come from the expected noise and amplitude (:class:`FrameQuality`), not from
+        the frames' own spread, which a few frames do not pin down; the camera's own invalidation
+        (its processing) from the delivered fraction. The camera delivers a pixel without
+        :data:`~tofjax._flags.CAMERA_FLAGS` (:attr:`delivered`); the rest are diagnostics of the
+        truth (:mod:`tofjax._flags`)."""
+        q, r = self.quality, self.result
+        saturated = (r.pixel_saturated_fraction > 0.0) | (r.adc_saturated_fraction > 0.0)
+        low = ~(q.expected_phase_std_rad <= q.max_phase_noise_rad)
+        dim = q.expected_amplitude_lsb < q.min_amplitude_lsb
+        invalidated = (r.valid_fraction < 0.5) & ~saturated & ~low & ~dim
+        return (_bit(saturated, FLAG_SATURATED) | _bit(low, FLAG_LOW_SIGNAL) | _bit(dim, FLAG_LOW_AMPLITUDE)
+                | _bit(invalidated, FLAG_INVALIDATED) | q.scene_flags)
+
+    @property
+    def delivered(self) -> Array:
+        """Whether the camera delivers each pixel: none of its own flags
+        (:data:`~tofjax._flags.CAMERA_FLAGS`: saturated, low signal, low amplitude, invalidated). The
+        truth's diagnostics (mixed, wrapped, no return, outside the illumination) never remove one:
+        a camera delivers a mixed pixel's biased depth unless its own data reject it."""
+        return delivered(self.flags)
 
     def points_m(self, radial_m: Array | None = None) -> np.ndarray:
-        """The point cloud ``(n, 3)`` of the pixels without flags (x right, y up, z along the axis),
-        from the measured radial distances (or ``radial_m``)."""
+        """The point cloud ``(n, 3)`` of the pixels the camera delivers (:attr:`delivered`; x right, y
+        up, z along the axis), from the measured radial distances (or ``radial_m``)."""
         radial = np.asarray(self.radial_m if radial_m is None else radial_m)
-        keep = (np.asarray(self.flags) == 0) & np.isfinite(radial)
+        keep = np.asarray(self.delivered) & np.isfinite(radial)
         return (radial[..., None] * np.asarray(self.direction))[keep]
 
 

@@ -585,7 +585,7 @@ def check_quantum_efficiency(responsivity, wavelength, collection_depth=0.0) -> 
     depth = np.asarray(collection_depth, dtype=float)
     if np.all(depth == 0.0):
         return
-    from ._background import silicon_absorption_per_m
+    from ._tables import silicon_absorption_per_m
 
     table_m, alpha = silicon_absorption_per_m()
     a = np.exp(np.interp(np.asarray(wavelength, dtype=float), table_m, np.log(alpha)))

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._flags import FLAG_KEYS, FLAGS
+from ._flags import CAMERA_FLAGS, DIAGNOSTIC_FLAGS, FLAG_KEYS, FLAGS, delivered
 from .outputs import save_figure, write_bytes, write_text
 from .outputs import write_npz as write_npz_file
 
@@ -277,13 +277,17 @@ def distance_error_m(arrays: dict[str, np.ndarray]) -> np.ndarray:
 
 
 def headlines(arrays: dict[str, np.ndarray]) -> dict[str, float]:
-    """Frame-level numbers: pixels, flagged fractions, median noise, median error (good pixels)."""
+    """Frame-level numbers: pixels, the good (delivered) fraction, every flag's fraction of all pixels
+    and each diagnostic's fraction of the good ones (``<name>_good_fraction``), median noise, median
+    error (good pixels: those the camera delivers, :func:`tofjax._flags.delivered`)."""
     flags = arrays["flags"]
-    good = flags == 0
+    good = delivered(flags)
     err = distance_error_m(arrays)[good]
     out = {
         "pixels": float(flags.size), "good_fraction": float(np.mean(good)),
         **{f"{FLAG_KEYS[bit]}_fraction": float(np.mean((flags & bit) != 0)) for bit in FLAGS},
+        **{f"{FLAG_KEYS[bit]}_good_fraction": float(np.mean((flags[good] & bit) != 0)) if good.any() else 0.0
+           for bit in FLAGS if bit & DIAGNOSTIC_FLAGS},
         "median_depth_std_mm": float(1e3 * np.nanmedian(arrays["depth_std_m"][good])) if good.any() else float("nan"),
         "median_abs_error_mm": float(1e3 * np.nanmedian(np.abs(err))) if err.size else float("nan"),
     }
@@ -299,23 +303,28 @@ def headlines(arrays: dict[str, np.ndarray]) -> dict[str, float]:
 
 
 def headline_text(numbers: dict, monte_carlo: bool = True) -> str:
-    """The frame's headline numbers (:func:`headlines`) in words, of the good (unflagged) pixels: their
-    share, and the flags that took the others; median noise, the median of the per-pixel ratio of
-    analytic to Monte Carlo noise (the agreement; the ratio of the two medians is not), median
-    |error|. ``monte_carlo``: whether the noise is the frames' (else the analytic frame's alone)."""
+    """The frame's headline numbers (:func:`headlines`) in words, of the good pixels (those the camera
+    delivers): their share, and the camera's flags that took the others; median noise, the median of
+    the per-pixel ratio of analytic to Monte Carlo noise (the agreement; the ratio of the two medians
+    is not), median |error|; and the truth's diagnostics among them (mixed, wrapped: delivered,
+    biased). ``monte_carlo``: whether the noise is the frames' (else the analytic frame's alone)."""
     import math
 
     def num(key, fmt):
         x = numbers.get(key, math.nan)
         return "-" if not math.isfinite(x) else format(x, fmt)
 
-    flagged = [f"{100 * numbers[f'{name}_fraction']:.1f} % {name.replace('_', ' ')}" for name in FLAG_KEYS.values()
-               if numbers[f"{name}_fraction"] > 0]
+    flagged = [f"{100 * numbers[f'{FLAG_KEYS[bit]}_fraction']:.1f} % {FLAG_KEYS[bit].replace('_', ' ')}"
+               for bit in FLAGS if bit & CAMERA_FLAGS and numbers[f"{FLAG_KEYS[bit]}_fraction"] > 0]
+    diagnosed = [f"{100 * numbers[f'{FLAG_KEYS[bit]}_good_fraction']:.1f} % {FLAG_KEYS[bit].replace('_', ' ')}"
+                 for bit in FLAGS if bit & DIAGNOSTIC_FLAGS and numbers.get(f"{FLAG_KEYS[bit]}_good_fraction", 0) > 0]
     noise = (f"median depth noise {num('median_depth_std_mm', '.3g')} mm (Monte Carlo), analytic / Monte Carlo "
              f"{num('median_noise_ratio', '.3f')} (median of the per-pixel ratio)" if monte_carlo
              else f"median depth noise {num('median_depth_std_mm', '.3g')} mm (analytic)")
-    return (f"good pixels {100 * numbers['good_fraction']:.1f} %" + (f" ({', '.join(flagged)})" if flagged else "")
-            + f"; of those, {noise}, median |error| {num('median_abs_error_mm', '.3g')} mm")
+    return (f"good pixels (delivered by the camera) {100 * numbers['good_fraction']:.1f} %"
+            + (f" ({', '.join(flagged)})" if flagged else "")
+            + f"; of those, {noise}, median |error| {num('median_abs_error_mm', '.3g')} mm"
+            + (f"; the truth says of them: {', '.join(diagnosed)}" if diagnosed else ""))
 
 
 def write_report(directory, arrays: dict[str, np.ndarray], pngs: list[Path], title: str, lines: list[str]) -> Path:
@@ -344,8 +353,9 @@ def intrinsics_arrays(intrinsics: dict) -> dict[str, np.ndarray]:
 def write_frame(directory, arrays: dict[str, np.ndarray], title: str, lines: list[str],
                 intrinsics: dict | None = None) -> dict:
     """Everything ``tofjax render`` writes into ``directory``: ``frame.npz``, the PNG maps, the
-    16-bit ``depth_mm.png`` (Z depth in millimetres) and ``amplitude.png`` (LSB), both 0 where a
-    pixel is not good, ``points.ply`` (the good pixels, with their intensity, grey by amplitude),
+    16-bit ``depth_mm.png`` (Z depth in millimetres) and ``amplitude.png`` (LSB), both 0 where the
+    camera does not deliver a pixel, ``points.ply`` (the delivered pixels, with their intensity, grey
+    by amplitude),
     ``report.html`` and, given the camera's ``intrinsics`` (:func:`tofjax.optics.intrinsics`),
     ``intrinsics.json`` (and the same numbers in ``frame.npz``, :func:`intrinsics_arrays`).
     Returns ``{"pngs": [...], "points": n}``."""
@@ -355,7 +365,7 @@ def write_frame(directory, arrays: dict[str, np.ndarray], title: str, lines: lis
         write_text(directory / "intrinsics.json", json.dumps(intrinsics, indent=2) + "\n")
     write_npz(directory / "frame.npz", arrays)
     pngs = write_maps(directory, arrays)
-    keep = (arrays["flags"] == 0) & np.isfinite(arrays["radial_m"])
+    keep = delivered(arrays["flags"]) & np.isfinite(arrays["radial_m"])
     for name, (key, scale) in SIXTEEN_BIT.items():
         write_png16(directory / name, sixteen_bit(arrays[key], scale, keep))
     cloud = arrays["radial_m"][keep][:, None] * arrays["direction"][keep]
