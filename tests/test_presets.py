@@ -13,14 +13,16 @@ import tofjax as tj
 from tofjax import sweepfile
 from tofjax import PRESETS, preset_config
 from tofjax.schema import preset_text
-from tofjax._presets import UNKNOWN
+from tofjax._presets import KINDS, UNKNOWN, Preset, camera_key
 from tofjax._schema import KEY_BY_DOTTED
 
 VALIDATION = Path(fitting.__file__).parent / "validation"
 
 
 @pytest.mark.parametrize("name", list(PRESETS))
-def test_every_key_of_a_preset_names_its_source_or_is_marked_unknown(name):
+def test_every_key_of_a_preset_says_what_it_is(name):
+    """Every key's note in the printed TOML: its kind (quoted, derived, fitted) and, for a value the
+    preset sets, a reference tag of its own; not the camera's (operating point); or unsourced."""
     text = preset_text(name)
     p = PRESETS[name]
     notes, section, previous = {}, None, ""
@@ -32,11 +34,26 @@ def test_every_key_of_a_preset_names_its_source_or_is_marked_unknown(name):
         previous = line
     assert set(notes) == set(KEY_BY_DOTTED)
     for dotted, note in notes.items():
-        assert note.startswith("# source: ") or note == f"# {UNKNOWN}", (dotted, note)
-        if dotted in p.values:  # a value the preset sets cites one of its references by tag
-            assert any(note.startswith(f"# source: {tag}") for tag in p.references), note
+        if not camera_key(dotted) and dotted not in p.values:
+            assert note.startswith("# not the camera's"), (dotted, note)
+            continue
+        assert note == f"# {UNKNOWN}" or note.split(":")[0] in {f"# {kind}" for kind in KINDS}, (dotted, note)
+        if dotted in p.values and note.startswith("# quoted"):  # a quoted value cites one of its references by tag
+            assert any(f"[{tag}]" in note or f" {tag}" in note for tag in p.references), note
     for tag, citation in p.references.items():
         assert f"[{tag}] {citation}" in text
+    kinds = p.kinds()
+    assert f"({sum(k == 'quoted' for k in kinds.values())} quoted, " in text
+
+
+def test_a_note_without_its_kind_is_refused():
+    with pytest.raises(ValueError, match=r"preset x: the note of camera.f_number must start with one of 'quoted:'"):
+        Preset("x", "x", {}, {"camera.f_number": (1.2, "from a datasheet")})
+
+
+def test_the_thesis_camera_is_sourced_key_by_key_and_is_the_default():
+    assert PRESETS["thesis"].unsourced() == []
+    assert preset_config("thesis").values == tj.Config().values
 
 
 @pytest.mark.parametrize("name", list(PRESETS))

@@ -1,0 +1,1 @@
+"""One module per camera preset (:mod:`tofjax._presets`): its ``PRESET``."""
