@@ -67,7 +67,11 @@ class Preset:
     - ``values``: dotted key -> (value, note); the note starts with its kind (:data:`KINDS`) and a
       colon, and names a reference tag;
     - ``section_sources``: section -> note (with its kind) for every key of the section the preset
-      does not set (the thesis preset: its tables).
+      does not set (the thesis preset: its tables);
+    - ``unmet``: the rows of the camera's published specification or characterisation
+      (``fitting/validation/``) that the preset does not meet, each with the physical reason:
+      ``"<file>:<column>:line <n>"`` (the row's line in the file) -> reason (tests/test_presets.py holds every other row to
+      its bound, and every measured value to a factor 2).
     """
 
     name: str
@@ -75,6 +79,7 @@ class Preset:
     references: Mapping[str, str]
     values: Mapping[str, tuple[Any, str]]
     section_sources: Mapping[str, str] = dataclasses.field(default_factory=dict)
+    unmet: Mapping[str, str] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
         for dotted, (_, note) in self.values.items():
