@@ -30,6 +30,16 @@ def test_dual_frequency_extends_the_range():
     wrong = np.asarray(noisy.wrong_unwrap_fraction)
     assert np.all(wrong[:5] == 0.0)  # high SNR: never wrong
     assert wrong[-1] > 0.1 and wrong[-1] > wrong[len(wrong) // 2]  # rises with distance
+    # The closed form of the rate (the union bound over the candidates) against the frames: within 3
+    # binomial standard errors (1500 frames) plus 0.02 up to a rate of 0.2; above, an upper bound (the
+    # union bound counts a frame two candidates beat twice, and the noise wraps: 0.57 against 0.42).
+    closed = np.asarray(tj.predict(tj.Camera(tj.Params(scene=tj.Scene(illuminance_lx=0.0)),
+                                             frequencies_hz=[80.32e6, 60.24e6]),
+                                   tj.Sweep.linspace("distance", 0.5, 7.4, 12)).wrong_unwrap_fraction)
+    assert np.all(closed[:5] < 1e-6) and closed[-1] > 0.1
+    tolerance = 3.0 * np.sqrt(wrong * (1 - wrong) / 1500) + 0.02
+    small = wrong < 0.2
+    assert np.all(np.abs(closed - wrong)[small] < tolerance[small]) and np.all(closed > wrong - tolerance)
     # combining frequencies beats each one alone where unwrapping is reliable
     per = np.asarray(noisy.per_frequency.depth_std_m)
     assert np.all(np.asarray(noisy.depth_std_m)[:5] < per[:, :5].min(axis=0))

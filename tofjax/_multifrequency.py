@@ -24,7 +24,12 @@ Under noise the wrong candidate can win: a *wrong unwrap*, an error of a sizeabl
 extended range (the effect behind Fig 5.9). A simulated frame counts as wrongly unwrapped when its
 distance is further than half the smallest unambiguity range from the true distance (modulo the
 extended range); statistics of the depth use the correctly unwrapped valid frames, and the wrong
-fraction is reported beside them.
+fraction is reported beside them. The analytic path gives its rate in closed form
+(:func:`wrong_unwrap_probability`): with phase noises eps_i (in periods), the correct candidate's
+disagreements are v_i = eps_1 d_1 / d_i - eps_i, the candidate k wraps of the first frequency away has
+v_i + delta_ki (delta_ki = k d_1 / d_i wrapped to (-1/2, 1/2]), and it wins where sum (v_i + delta_ki)^2 <
+sum v_i^2, i.e. where the Gaussian v . delta_k < -|delta_k|^2 / 2: P_k = Phi(-|delta_k|^2 / (2 sd(v . delta_k))),
+summed over the candidates (the union bound, tight where the rate is small; capped at 1).
 
 The frames of every frequency are drawn together, chunk by chunk, by the Monte Carlo engine
 (:mod:`tofjax._frames`), so memory stays bounded; each frequency has its own random stream.
@@ -74,8 +79,8 @@ class MultiFrequencyResult(eqx.Module):
       ``valid``, ``wrong_unwrap``: per kept frame (``None`` without ``keep_frames``).
     - ``depth_mean_m``, ``depth_std_m``: circular statistics (period: the extended range) over the
       valid, correctly unwrapped frames; ``wrong_unwrap_fraction`` over the valid frames. From
-      :func:`tofjax.predict`: the fused expected distance and its noise (analytic), the
-      wrong-unwrap fraction NaN (not modelled analytically).
+      :func:`tofjax.predict`: the fused expected distance and its noise (analytic), and the
+      wrong-unwrap rate in closed form (:func:`wrong_unwrap_probability`).
     - ``fusion``: the weighting of the frequencies' distances (module docstring).
     """
 
@@ -115,6 +120,30 @@ def fusion_weights(depth_var_m2: Float[Array, "frequencies *b"], ranges_m, fusio
 def fused_std(depth_std_m: Float[Array, "frequencies *b"], weights: Float[Array, "frequencies *b"]) -> Float[Array, "*b"]:
     """Noise of the weighted mean of independent distances: sqrt(sum w_i^2 sigma_i^2) / sum w_i."""
     return jnp.sqrt(jnp.sum(weights**2 * depth_std_m**2, axis=0)) / jnp.sum(weights, axis=0)
+
+
+def wrong_unwrap_probability(std_cycles: Float[Array, "frequencies *b"], ranges_m, extended_m: float
+                             ) -> Float[Array, "*b"]:
+    """The probability that the unwrapping picks a wrong candidate (module docstring), from each
+    frequency's phase noise in periods ``std_cycles`` (its depth noise over its unambiguity range);
+    ``ranges_m``, ``extended_m``: concrete."""
+    from ._processing import normal_cdf
+
+    ranges = np.asarray(ranges_m, dtype=float)
+    ratios = ranges[0] / ranges[1:]  # d_1 / d_i of the other frequencies
+    var = std_cycles**2
+    total = jnp.zeros(std_cycles.shape[1:], std_cycles.dtype)
+    for k in range(1, int(math.ceil(extended_m / ranges[0] - 1e-9))):
+        delta = k * ratios - np.round(k * ratios)  # the other frequencies' disagreement, periods
+        gap = float(np.sum(delta * delta))
+        if gap == 0.0:  # a candidate every frequency agrees on: the extended range is shorter
+            continue
+        # Var(v . delta): v_i = eps_1 d_1 / d_i - eps_i, the eps independent.
+        spread = (float(np.dot(delta, ratios)) ** 2) * var[0] + sum(float(d * d) * var[i + 1]
+                                                                    for i, d in enumerate(delta))
+        safe = jnp.where(spread > 0, spread, 1.0)
+        total = total + jnp.where(spread > 0, normal_cdf(-gap / (2.0 * jnp.sqrt(safe))), 0.0)
+    return jnp.minimum(total, 1.0)
 
 
 def unwrap_frequencies(phases: Float[Array, "frequencies *b"], ranges_m: Float[Array, " frequencies"],
@@ -196,7 +225,9 @@ def _predict(params, sweep, freqs, extended, ranges, fusion, smooth, processing=
     return MultiFrequencyResult(
         frequencies_hz=freqs, extended_range_m=jnp.asarray(extended), distance_m=d, per_frequency=per,
         depth_m=None, valid=None, wrong_unwrap=None, depth_mean_m=jnp.where(ok, mean, jnp.nan),
-        depth_std_m=fused_std(per.depth_std_m, weights), wrong_unwrap_fraction=jnp.full(d.shape, jnp.nan),
+        depth_std_m=fused_std(per.depth_std_m, weights),
+        wrong_unwrap_fraction=wrong_unwrap_probability(per.depth_std_m / jnp.asarray(ranges_np).reshape(
+            (-1,) + (1,) * sweep.values.ndim), ranges_np, extended),
         valid_fraction=valid, fusion=fusion)
 
 

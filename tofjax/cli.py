@@ -336,8 +336,9 @@ def _simulate(args) -> int:
         wrong = np.asarray(multi.wrong_unwrap_fraction)
         print(f"{len(freqs)} frequencies ({multi.fusion} fusion): extended range {float(multi.extended_range_m):.4f} m; "
               f"combined depth std {1e3 * np.nanmin(multi.depth_std_m):.3g}-{1e3 * np.nanmax(multi.depth_std_m):.3g} mm"
-              + (f"; wrong unwraps up to {100 * np.nanmax(wrong):.1f} % of valid frames" if np.any(np.isfinite(wrong))
-                 else " (analytic: for the correct unwrap; wrong unwraps need --method mc)"))
+              + f"; wrong unwraps up to {100 * np.nanmax(wrong):.1f} % of valid frames"
+              + (" (analytic: the closed form's union bound, an upper bound where it is large)"
+                 if args.method == "analytic" else ""))
     if args.report is not None:
         print(f"report: {args.report / 'report.html'}")
     return 0
