@@ -91,3 +91,39 @@ def test_every_frequency_keeps_its_raw_phase_images():
         chain = build_chain(eqx.tree_at(lambda p: p.illumination_waveform.modulation_frequency_hz, camera.params, f))
         difference = np.asarray(per.frames_tap_a_e[i]) - np.asarray(per.frames_tap_b_e[i])
         np.testing.assert_array_equal(chain.readout.quantize(chain.readout.position(difference)), per.codes[i])
+
+
+def test_a_frame_of_several_frequencies_is_fused_pixel_by_pixel():
+    """A wall at 3 m, beyond either frequency's range (1.87, 2.49 m): the fused frame reads it where
+    each frequency alone wraps; its Monte Carlo noise is the closed form's; the noisy frames of a
+    prepared camera and of an exposed scene are the same; the wrapped flag counts the extended range."""
+    from helpers import small
+
+    params = small(tj.Params(scene=tj.Scene(illuminance_lx=0.0)))
+    camera = tj.Camera(params, frequencies_hz=(80.32e6, 60.24e6))
+    scene = tj.scenes.wall(3.0)
+    analytic = tj.predict(camera, scene)
+    assert float(analytic.result.unambiguity_range_m) == pytest.approx(7.465, abs=1e-3)
+    error = np.asarray(analytic.radial_m - analytic.radial_true_m)
+    assert np.all(np.abs(error) < 0.05)  # the wiggling of the two frequencies, not a wrap
+    assert np.nanmedian(np.asarray(tj.predict(tj.Camera(params), scene).radial_m)) < 1.87  # one frequency wraps
+    assert not np.any(np.asarray(analytic.flags) & 8)
+    assert np.all(np.asarray(analytic.result.wrong_unwrap_fraction) < 0.2)
+    mc = tj.simulate(camera, scene, jax.random.key(0), 200, keep_frames=2)
+    ratio = np.asarray(mc.depth_std_m) / np.asarray(analytic.depth_std_m)
+    assert np.nanmedian(ratio) == pytest.approx(1.0, abs=0.05)
+    assert mc.frames_radial_m.shape == (2,) + analytic.radial_m.shape
+    a = camera.expose(scene).sample(jax.random.key(1), 2)
+    b = camera.prepare().sample(camera.returns(scene), jax.random.key(1), 2)
+    np.testing.assert_allclose(np.asarray(a.radial_m), np.asarray(b.radial_m), rtol=1e-12)  # other programs
+    near = np.abs(np.asarray(a.radial_m) - np.asarray(analytic.radial_true_m)[None])[np.asarray(a.valid)] < 0.5
+    wrong = float(np.mean(np.asarray(analytic.result.wrong_unwrap_fraction)))
+    assert 1.0 - near.mean() < wrong + 0.03  # the frames a wrong unwrap takes, at the closed form's rate
+
+
+def test_phase_average_weights_each_distance_by_its_frequency():
+    from tofjax._multifrequency import fusion_weights
+
+    ranges = np.array([1.0, 2.0, 4.0])
+    w = np.asarray(fusion_weights(np.ones((3, 2)), ranges, "phase_average"))
+    np.testing.assert_allclose(w[:, 0] / w[0, 0], [1.0, 0.5, 0.25])

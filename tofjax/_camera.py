@@ -11,7 +11,7 @@ take a camera and a scene:
 A scene is a :class:`tofjax.Sweep` (operating points of the centre pixel: the pixel on the optical
 axis, one return each), a :class:`tofjax.Returns` (every pixel of a frame and its returns), a
 :class:`tofjax.scenes.SceneGeometry` (ray-cast into returns) or a depth map (an array of the frame's
-shape, Z depth in metres). A camera with several frequencies fuses them (sweeps; frames take one).
+shape, Z depth in metres). A camera with several frequencies fuses them (sweeps and frames).
 
 What is prepared once is one explicit step: :meth:`Camera.expose` (a static scene exposed on the
 camera: its ``predict``, ``render``, ``sample`` and ``noise_image`` cost only the chain after the
@@ -164,12 +164,20 @@ class Camera(eqx.Module):
         ``predict(returns)``, ``render(returns, key, frames, keep_frames=, raw=, progress=)``,
         ``sample(returns, key, frames, raw=)`` (noisy frames only, :class:`tofjax.NoisyFrames`: what a
         simulated camera streams when its scene changes every frame), ``noise_image(returns)`` (each
-        pixel's analytic distance noise only) and ``prepare(returns)`` (as :meth:`expose`)."""
+        pixel's analytic distance noise only) and ``prepare(returns)`` (as :meth:`expose`). A camera
+        of several frequencies: every frequency's frames, fused pixel by pixel and frame by frame
+        (``tofjax._multiframe.MultiPreparedCamera``, the same methods)."""
         from ._frame import prepare_camera
 
-        self._one_frequency("a frame")
-        prepared = prepare_camera(self.params, self.settings, self.pattern, smooth=self.smooth,
-                                  processing=self.processing)
+        if self.multifrequency:  # every frequency's frames, fused (tofjax._multiframe)
+            from ._multiframe import multi_prepare_camera
+
+            prepared = multi_prepare_camera(self.params, self.settings, self.pattern, smooth=self.smooth,
+                                            processing=self.processing, frequencies_hz=self.frequencies_hz,
+                                            fusion=self.fusion)
+        else:
+            prepared = prepare_camera(self.params, self.settings, self.pattern, smooth=self.smooth,
+                                      processing=self.processing)
         return prepared if self.precision == "float64" else in_precision(prepared, self.precision)
 
     @_jit.method
@@ -210,12 +218,6 @@ class Camera(eqx.Module):
             raise ValueError(f"{what} runs in float64: this camera computes its frames in precision = "
                              f"{self.precision!r} (Camera.astype), which a sweep does not honour; use "
                              "camera.astype('float64')")
-
-    @_jit.method
-    def _one_frequency(self, what: str) -> None:
-        if self.multifrequency:
-            raise ValueError(f"{what} simulates one modulation frequency: this camera has {len(self.frequencies_hz)} "
-                             f"({', '.join(f'{f:g}' for f in self.frequencies_hz)} Hz); sweep the centre pixel instead")
 
 
 def predict(camera, scene, *, smooth: Smooth | None = None, pattern: PixelPattern | None = None):

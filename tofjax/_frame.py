@@ -65,10 +65,12 @@ class FrameQuality(eqx.Module):
     min_amplitude_lsb: Float[Array, ""]
 
 
-def scene_flags(params: Params, settings: FrameSettings, returns: Returns, direction: Array) -> Array:
+def scene_flags(params: Params, settings: FrameSettings, returns: Returns, direction: Array,
+                unambiguity_m: Array | None = None) -> Array:
     """The flags of :data:`FLAGS` that the scene and the geometry decide: no return, wrapped,
-    mixed, outside the illumination (int32, ``(rows, cols)``)."""
-    du = params.unambiguity_range_m
+    mixed, outside the illumination (int32, ``(rows, cols)``); ``unambiguity_m``: the camera's
+    unambiguity range (default: its frequency's; several frequencies: their extended range)."""
+    du = params.unambiguity_range_m if unambiguity_m is None else unambiguity_m
 
     def over_returns(x):  # adds of the few returns' slices, not XLA's slow reduction over a short axis
         return sum_by_slices(x, -1, UNROLLED_RETURNS)
@@ -570,7 +572,7 @@ def _noise_image_prepared(chain, sweep, exposed) -> Array:
 
 
 @_jit.jit
-def _sample_prepared(chain, source, key, frames, shape, raw=False) -> NoisyFrames:
+def _sample_prepared(chain, source, key, frames, shape, raw=False, stream=0) -> NoisyFrames:
     # Frames first throughout (the frames :func:`run_blocks` keeps are points first): no transposes,
     # which cost more than the frames themselves (docs/model.md, "Performance", measurement 16). Chunks of
     # frames as in run_blocks, in a lax.map when there are several. ``source``: the pixels'
@@ -585,7 +587,7 @@ def _sample_prepared(chain, source, key, frames, shape, raw=False) -> NoisyFrame
         source = source.constants(chain)
 
     def one(first):
-        f = draw_delivered(chain, source, words, first, chunk, frames_first=True, taps=raw, image=shape)
+        f = draw_delivered(chain, source, words, first, chunk, stream, frames_first=True, taps=raw, image=shape)
         valid = f.valid
         out = (jnp.where(valid, jnp.mod(f.phase, 2.0 * jnp.pi) * to_m, jnp.nan), f.amplitude, valid)
         # The raw images (phases, frames, points) -> frames first, as the images.

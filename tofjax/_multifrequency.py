@@ -15,7 +15,9 @@ weights of the camera's *fusion* (``illumination_waveform.frequency_fusion``, do
 - ``unambiguity_range``: w_i = 1 / d_i^2, what inverse variance becomes when every frequency has the
   same phase noise;
 - ``equal``: w_i = 1;
-- ``highest_frequency``: only the highest frequency's distance; the others only choose its wrap.
+- ``highest_frequency``: only the highest frequency's distance; the others only choose its wrap;
+- ``phase_average``: w_i = 1/d_i (proportional to f_i): the mean of the frequencies' unwrapped phases
+  (each a distance over its own d_i), as libfreenect2's depth engine of the Kinect v2 fuses them.
 
 The fused distance's noise, for the correct unwrap, is sigma^2 = sum w_i^2 sigma_i^2 / (sum w_i)^2
 (:func:`fused_std`); :func:`tofjax.predict` of a multi-frequency camera gives it analytically.
@@ -111,6 +113,8 @@ def fusion_weights(depth_var_m2: Float[Array, "frequencies *b"], ranges_m, fusio
         return jnp.broadcast_to(1.0 / ranges**2, shape)
     if fusion == "equal":
         return jnp.ones(shape)
+    if fusion == "phase_average":
+        return jnp.broadcast_to(1.0 / ranges, shape)
     if fusion == "highest_frequency":
         return jnp.broadcast_to((ranges == jnp.min(ranges)).astype(float), shape)
     raise ValueError(f"frequency_fusion = {fusion!r} is not allowed: expected one of "
@@ -271,14 +275,15 @@ class _Step(eqx.Module):
     ranges: tuple[float, ...] = eqx.field(static=True)
     extended: float = eqx.field(static=True)
     raw: bool = eqx.field(static=True, default=False)
+    image: tuple[int, int] | None = eqx.field(static=True, default=None)  # a frame's pixels (whole frames)
 
     def __call__(self, cb, first, n, counted, record):
         ranges, extended, words = np.asarray(self.ranges), self.extended, self.words
         consts, ref, true, w = cb
         linear = jnp.all(consts.linear, axis=0)  # a point's path, the same at every frequency (outside the vmap)
         taps = record and self.raw
-        frames = jax.vmap(lambda ch, c, st: draw_delivered(ch, c, words, first, n, st, linear, taps=taps))(
-            self.chains, consts, self.streams)
+        frames = jax.vmap(lambda ch, c, st: draw_delivered(ch, c, words, first, n, st, linear, taps=taps,
+                                                           image=self.image))(self.chains, consts, self.streams)
         per, valid_f = jax.vmap(lambda c, f: reduce_frames(c, f, counted[None, :]))(consts, frames)
         valid = jnp.all(valid_f, axis=0)
         depth = unwrap_frequencies(jnp.where(valid[None], jnp.mod(frames.phase, 2.0 * jnp.pi), 0.0), ranges, extended,

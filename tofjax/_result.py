@@ -102,7 +102,8 @@ class Result(eqx.Module):
     distance to its nearer rail over its 2^N codes, the smallest over the phase images): > 0 where
     the hard model measures the expected point, <= 0 where it saturates (the calibration keeps every
     measured point above 0). ``caveats`` (analytic path only): bits of :data:`CAVEATS`
-    where the closed form is not what frames would show (0: none).
+    where the closed form is not what frames would show (0: none). ``wrong_unwrap_fraction``: a
+    fused frame of several frequencies' (:mod:`tofjax._multiframe`), else ``None``.
 
     In the hard mode, statistics of points without two valid frames (analytic: whose expected
     signal saturates) are NaN and flagged by ``valid_fraction``; never reported as 0 m.
@@ -143,6 +144,7 @@ class Result(eqx.Module):
     caveats: Int[Array, "*b"] | None = None
     frames_tap_a_e: Float[Array, "*b frames phases"] | None = None
     frames_tap_b_e: Float[Array, "*b frames phases"] | None = None
+    wrong_unwrap_fraction: Float[Array, "*b"] | None = None
 
     @property
     def tap_a_v(self) -> Float[Array, "*b phases"]:

@@ -24,7 +24,7 @@ BACKGROUNDS = ("sunlight", "halogen", "incandescent", "fluorescent", "led")
 #: How a camera's "exposure" or integration time is counted (docs/model.md, "Exposure definition").
 EXPOSURE_DEFINITIONS = ("phase_image", "frequency", "frame")
 #: How a multi-frequency camera combines its frequencies' distances (docs/model.md, "Frequency fusion").
-FUSIONS = ("inverse_variance", "unambiguity_range", "equal", "highest_frequency")
+FUSIONS = ("inverse_variance", "unambiguity_range", "equal", "highest_frequency", "phase_average")
 #: The camera's spatial filters (``processing.spatial_filter``; ``tofjax.processing.SpatialFilter``).
 SPATIAL_FILTERS = ("none", "box", "median")
 
@@ -255,7 +255,8 @@ KEYS: tuple[Key, ...] = (
        "further frequencies for range extension (e.g. [60.24e6]; empty = one frequency)", 0.0, 5e9, lo_open=True),
     _k("illumination_waveform", "frequency_fusion", "choice", "inverse_variance", "-",
        "how the frequencies' distances are combined into one: inverse_variance (default), unambiguity_range "
-       "(weights 1/d_u^2), equal, highest_frequency (the others only unwrap)", choices=FUSIONS),
+       "(weights 1/d_u^2), equal, highest_frequency (the others only unwrap), phase_average (weights 1/d_u: the "
+       "mean of the unwrapped phases, libfreenect2's)", choices=FUSIONS),
     # --- [reference_waveform]  thesis Table 4.7
     _k("reference_waveform", "shape", "choice", "gauss_extended", "-", "pixel demodulation (reference) waveform",
        choices=WAVEFORM_SHAPES),
