@@ -137,8 +137,8 @@ def test_sizes_are_refused_before_any_work_naming_the_cause(tmp_path, capsys, mo
 def test_render_refuses_what_it_would_not_simulate(tmp_path, capsys):
     dual = tmp_path / "dual.toml"
     dual.write_text("[illumination_waveform]\nextra_modulation_frequencies_hz = [60.24e6]\n")
-    line = _refused(["render", "--scene", "wall", "--config", dual, "--out", tmp_path / "o"], capsys)
-    assert "render simulates one modulation frequency" in line and "extra_modulation_frequencies_hz" in line
+    line = _refused(["render", "--scene", "wall", "--config", dual, "--raw", "--out", tmp_path / "o"], capsys)
+    assert "--raw writes one frequency's raw phase images" in line and "extra_modulation_frequencies_hz" in line
     folder = tmp_path / "o2"
     (folder / "frame.npz").mkdir(parents=True)  # D/frame.npz a directory: refused before rendering
     line = _refused(["render", "--scene", "wall", "--out", folder, "--overwrite"], capsys)

@@ -175,7 +175,7 @@ class ExplorerState:
             builder, name, kwargs = parse_scene(text, option="scene")
             params, settings = config.params, config.frame
             camera = Camera.from_config(config)
-            prepared = camera.prepare()  # first: it refuses a camera of several frequencies before any ray cast
+            prepared = camera.prepare()  # first: its own errors before any ray cast
             geometry = None if builder is None else builder(**kwargs)
             room = check_size(name, geometry, settings, frame_shape(params))  # the memory a frame needs
             returns = (load_npz_scene(name, params, settings, room, option="scene") if geometry is None

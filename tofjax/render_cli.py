@@ -119,10 +119,11 @@ def run(args) -> int:
     from ._limits import kept_limit_text
     from ._montecarlo import max_keep_frames
 
-    if len(config.modulation_frequencies_hz) > 1:
-        raise ValueError("render simulates one modulation frequency: illumination_waveform."
+    if len(config.modulation_frequencies_hz) > 1 and args.raw:
+        raise ValueError("--raw writes one frequency's raw phase images: illumination_waveform."
                          f"extra_modulation_frequencies_hz = {config.values['illumination_waveform']['extra_modulation_frequencies_hz']}"
-                         " is not supported by render (remove it, or sweep the centre pixel with tofjax simulate)")
+                         " makes several (render without --raw, or keep them in Python: tj.simulate(camera, scene, key, "
+                         "frames, keep_frames=..., raw=True))")
     from ._timing import summary_lines
 
     timing = summary_lines(tj.Camera.from_config(config))  # refuses an impossible frame rate before any work
@@ -151,7 +152,8 @@ def run(args) -> int:
         pattern = tj.draw_pattern(params, settings, (rows, cols)) if args.fixed_pattern else None
         t1 = time.perf_counter()
         stage(f"{args.frames} Monte Carlo frames")
-        scene = tj.Camera(params, settings, pattern=pattern).expose(returns)  # once, for the frames and the analytic image
+        # The camera of the configuration: its frequencies, its processing; once, for the frames and the analytic image.
+        scene = tj.Camera.from_config(config, pattern=pattern).expose(returns)
         with reporting(Progress(1, f"render: {args.frames} frames", unit="chunk", enabled=not args.quiet)):
             frame = jax.device_get(scene.render(jax.random.key(args.seed), args.frames,
                                                 keep_frames=args.keep_frames, raw=args.raw, progress=True))
