@@ -42,6 +42,24 @@ def test_median_neighbour_correlation_is_that_of_overlapping_windows():
         assert np.corrcoef(med[:, 0, 0], med[:, 1, 1])[0, 1] == pytest.approx(diagonal, abs=0.02), k
 
 
+def test_the_median_of_neighbours_of_different_depths_is_that_of_their_samples():
+    """The analytic frame's median filter (tofjax._filters.median_moments) against 4000 samples of each
+    of 200 random 3 x 3 neighbourhoods (some neighbours missing), their expected depths spread by 0
+    (a flat wall) or 10 (an edge) of their noise: the mean within 0.1 of the median's own noise, and the
+    variance of an odd count's median within 5 % at the median of the neighbourhoods."""
+    from tofjax._filters import median_moments
+
+    for spread in (0.0, 10.0):
+        mu, sd = RNG.normal(0.0, spread, (9, 200)), RNG.uniform(0.5, 1.5, (9, 200))
+        ok = RNG.random((9, 200)) > 0.1
+        draws = np.where(ok[..., None], mu[..., None] + sd[..., None] * RNG.standard_normal((9, 200, 4000)), np.nan)
+        sampled = np.nanmedian(draws, axis=0)
+        mean, var = (np.asarray(x) for x in median_moments(*([jnp.asarray(r) for r in a] for a in (mu, sd, ok))))
+        odd = (ok.sum(0) % 2 == 1) & (ok.sum(0) >= 3)
+        assert np.median(np.abs(mean - sampled.mean(-1)) / sampled.std(-1)) < 0.1
+        assert np.median(var[odd] / sampled.var(-1)[odd]) == pytest.approx(1.0, abs=0.05), spread
+
+
 def _frames(shape=(3, 6, 7)):
     """Frames of phases that straddle the wrap (+-pi) with holes: what a camera's filter sees."""
     phase = _wrap(np.pi + 0.4 * RNG.standard_normal(shape))

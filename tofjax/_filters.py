@@ -85,8 +85,46 @@ def median_variance(n):
     return jnp.asarray(_median_variances()[0])[jnp.asarray(n, dtype=jnp.int32)]
 
 
-#: Nodes per neighbour of the median's moments in a frame (:func:`median_moments`).
-MEDIAN_NODES = 8
+def _batcher_pairs(n: int) -> list[tuple[int, int]]:
+    """The compare-exchange pairs of Batcher's odd-even merge sort of ``n`` (a power of two) values:
+    a sorting network, n log^2 n / 4 comparisons."""
+    pairs = []
+    p = 1
+    while p < n:
+        k = p
+        while k >= 1:
+            for j in range(k % p, n - k, 2 * k):
+                for i in range(min(k, n - j - k)):
+                    if (i + j) // (2 * p) == (i + j + k) // (2 * p):
+                        pairs.append((i + j, i + j + k))
+            k //= 2
+        p *= 2
+    return pairs
+
+
+def masked_median(values: list, ok: list):
+    """The median of ``values`` where ``ok`` (the mean of the two middle ones for an even count),
+    elementwise over their arrays; arbitrary where none is. A sorting network of element-wise minima
+    and maxima (Batcher's, the values padded to a power of two): XLA's sort of a short axis on a CPU
+    took 400 times as long for a 3 x 3 median of a frame."""
+    big = jnp.asarray(jnp.inf, values[0].dtype)
+    v = [jnp.where(o, x, big) for x, o in zip(values, ok, strict=True)]  # the missing ones sort last
+    v += [jnp.full_like(v[0], big)] * ((1 << (len(v) - 1).bit_length()) - len(v))
+    for i, j in _batcher_pairs(len(v)):
+        v[i], v[j] = jnp.minimum(v[i], v[j]), jnp.maximum(v[i], v[j])
+    n = sum(o.astype(jnp.int32) for o in ok)
+    lo, hi = jnp.maximum(n - 1, 0) // 2, n // 2
+
+    def rank(r):
+        return sum(jnp.where(r == k, v[k], 0.0) for k in range(len(values)))
+
+    return 0.5 * (rank(lo) + rank(hi))
+
+
+#: Gauss-Hermite nodes per value of the median's moments across an edge, and grid points where the
+#: values' means lie within their noise (:func:`median_moments`).
+MEDIAN_NODES = 12
+MEDIAN_GRID = 33
 
 
 def median_moments(means: list, sds: list, ok: list) -> tuple:
@@ -95,53 +133,104 @@ def median_moments(means: list, sds: list, ok: list) -> tuple:
     pixels whose expected depths differ (across a depth gradient or an edge the median follows one
     neighbour, and its variance is not c(n) s^2).
 
-    The r-th smallest of n values is at most x where at least r are: P = sum_{i >= r} P(N(x) = i),
-    N(x) Poisson-binomial of p_j = Phi((x - m_j) / s_j) (counted value by value). Its moments follow
-    from E[X] = x_0 + int (1 - F) dx and E[X^2] = x_0^2 + int 2 x (1 - F) dx, by the trapezoid rule on
-    :data:`MEDIAN_NODES` nodes around each value (F is flat between them), scanned in order. For an
-    even count the median is the mean of the two middle values: its mean is exact, its variance
-    takes their correlation in the identical case (:func:`_median_variances`)."""
+    The r-th smallest of n values is at most x where at least r are below it, a Poisson-binomial count
+    of p_i = Phi((x - m_i) / s_i). Two quadratures of its distribution, each where it is accurate:
+
+    - means spread beyond the noise (an edge, a steep gradient): value j is the r-th where X_j = x
+      and exactly r - 1 of the others lie below, so E[g(X_(r))] = sum_j E_{x ~ N(m_j, s_j^2)}[g(x)
+      P(N_-j(x) = r - 1)], each by Gauss-Hermite quadrature in its own value (:data:`MEDIAN_NODES`
+      nodes, normalised by the weights' total, 1 exactly);
+    - means within the noise (the median is then as narrow as c(n) s^2, which those nodes do not
+      resolve): E[X] = x_0 + int (1 - F) dx and E[X^2] = x_0^2 + int 2 x (1 - F) dx by the trapezoid rule
+      on :data:`MEDIAN_GRID` points across the means' spread plus 5 standard deviations of the median.
+
+    For an odd count the median is the middle value; for an even one (a frame's border, an invalid
+    neighbour) the mean of the two middle values: its mean is exact, its variance takes their
+    correlation, the identical case's within the noise (:func:`_median_variances`) and half of it
+    across an edge (an interpolation: there the two are mostly different neighbours' own values).
+    Against 4000 samples of each of 300 random 3 x 3 and 5 x 5 neighbourhoods, means spread by 0-10
+    standard deviations: an odd count's variance within 5 % at the median of the neighbourhoods and
+    within 5-27 % at their 95th percentile (the samples' own error: 2 % and 4 %); an even count's within
+    2 % within the noise, 25 % across an edge."""
     from jax import lax
 
     from ._processing import normal_cdf
 
     dtype = means[0].dtype
-    m = jnp.stack([jnp.where(o, mu, 0.0) for mu, o in zip(means, ok, strict=True)], axis=-1)  # (..., n)
-    s = jnp.stack([jnp.where(o, sd, 1.0) for sd, o in zip(sds, ok, strict=True)], axis=-1)
-    present = jnp.stack(ok, axis=-1)
-    count = jnp.sum(present, axis=-1)
-    spread = jnp.max(jnp.where(present, s, 0.0), axis=-1, keepdims=True)
-    offsets = jnp.linspace(-4.0, 4.0, MEDIAN_NODES, dtype=dtype).reshape((1,) * m.ndim + (-1,))
-    nodes = (m[..., :, None] + jnp.where(present, s, spread)[..., :, None] * offsets).reshape(m.shape[:-1] + (-1,))
-    nodes = jnp.sort(nodes, axis=-1)
-    n_max = len(means)
-    lower = (count + 1) // 2  # the (lower) middle rank, 1-based
-    upper = count // 2 + 1
+    n = len(means)
+    m = jnp.stack([jnp.where(o, mu, 0.0) for mu, o in zip(means, ok, strict=True)])  # (n, ...)
+    s = jnp.stack([jnp.where(o, sd, 1.0) for sd, o in zip(sds, ok, strict=True)])
+    present = jnp.stack(ok)
+    count = jnp.sum(present, axis=0).astype(jnp.int32)
+    safe_count = jnp.maximum(count, 1).astype(dtype)
+    lower, upper = (count + 1) // 2, count // 2 + 1  # the middle ranks, 1-based
+    needed = n // 2 + 1  # counts 0 .. needed - 1 reach every middle rank
+    lead = lambda x: x[None]  # noqa: E731 - against the nodes' leading axis
 
-    def cdfs(x):  # P(the lower / upper middle value <= x), at nodes x (...)
-        probs = jnp.zeros(x.shape + (n_max + 1,), dtype).at[..., 0].set(1.0)
-        for j in range(n_max):
-            p = jnp.where(present[..., j], normal_cdf((x - m[..., j]) / s[..., j]), 0.0)[..., None]
-            shifted = jnp.concatenate([jnp.zeros_like(probs[..., :1]), probs[..., :-1]], axis=-1)
-            probs = probs * (1.0 - p) + shifted * p
-        at_least = jnp.flip(jnp.cumsum(jnp.flip(probs, -1), -1), -1)  # P(N >= i)
-        return tuple(jnp.take_along_axis(at_least, r[..., None], axis=-1)[..., 0] for r in (lower, upper))
+    def below(x, skip):
+        """P(exactly k of the values (value ``skip`` never counted) lie below x), k = 0 .. needed - 1:
+        a Poisson-binomial, value by value (one scan step, so the program stays small)."""
+        def step(counts, value):
+            mu, sd, o, i = value
+            p = jnp.where(lead(o & (i != skip)), normal_cdf((x - lead(mu)) / lead(sd)), 0.0)
+            shifted = jnp.concatenate([jnp.zeros_like(counts[:1]), counts[:-1]])
+            return counts * (1.0 - p)[None] + shifted * p[None], None
 
-    def step(carry, x):
-        x_prev, f_prev, acc = carry
-        f = cdfs(x)
-        h = x - x_prev
-        acc = tuple(a + h[None] * jnp.stack([1.0 - 0.5 * (fp + fx), x_prev * (1.0 - fp) + x * (1.0 - fx)])
-                    for a, fp, fx in zip(acc, f_prev, f, strict=True))
-        return (x, f, acc), None
+        start = jnp.zeros((needed,) + x.shape, dtype).at[0].set(1.0)
+        return lax.scan(step, start, (m, s, present, jnp.arange(n, dtype=jnp.int32)))[0]
 
-    first = nodes[..., 0]
-    zero = jnp.zeros((2,) + first.shape, dtype)
-    (_, _, acc), _ = lax.scan(step, (first, cdfs(first), (zero, zero)), jnp.moveaxis(nodes[..., 1:], -1, 0))
-    moments = [(first + a[0], first**2 + a[1]) for a in acc]  # E X, E X^2 of the lower and upper middle values
-    (e_lo, e2_lo), (e_hi, e2_hi) = moments
-    var_lo, var_hi = jnp.maximum(e2_lo - e_lo**2, 0.0), jnp.maximum(e2_hi - e_hi**2, 0.0)
-    rho = jnp.asarray(_median_variances()[1])[count]
+    def at_rank(counts, k):  # P(exactly k), per pixel's k
+        return jnp.sum(jnp.where(jnp.arange(needed, dtype=jnp.int32).reshape((-1,) + (1,) * (counts.ndim - 1))
+                                 == k[None, None],
+                                 counts, 0.0), axis=0)
+
+    # Across an edge: each value's own Gauss-Hermite nodes.
+    t, w = np.polynomial.hermite.hermgauss(MEDIAN_NODES)
+    shape = (-1,) + (1,) * count.ndim
+    t = jnp.asarray(math.sqrt(2.0) * t, dtype).reshape(shape)
+    w = jnp.asarray(w / math.sqrt(math.pi), dtype).reshape(shape)
+
+    def own(value):  # value j's contribution to (weights, x, x^2) of the lower and upper middle values
+        mu, sd, o, j = value
+        x = lead(mu) + t * lead(sd)
+        counts = below(x, j)
+        out = []
+        for rank in (lower, upper):
+            weight = jnp.where(lead(o), w * at_rank(counts, rank - 1), 0.0)
+            out.append(jnp.stack([jnp.sum(weight, 0), jnp.sum(weight * x, 0), jnp.sum(weight * x * x, 0)]))
+        return jnp.stack(out)
+
+    sums = jnp.sum(lax.map(own, (m, s, present, jnp.arange(n, dtype=jnp.int32))), axis=0)  # (2, 3, ...)
+
+    def from_sums(r):
+        total, first, second = sums[r]
+        safe = jnp.where(total > 0, total, 1.0)
+        mean = first / safe
+        return mean, jnp.maximum(second / safe - mean * mean, 0.0)
+
+    edge = [from_sums(0), from_sums(1)]
+
+    # Within the noise: the CDF on a grid around the means.
+    centre = jnp.sum(jnp.where(present, m, 0.0), 0) / safe_count
+    noise = jnp.sqrt(jnp.sum(jnp.where(present, s * s, 0.0), 0) / safe_count)
+    spread = jnp.max(jnp.where(present, jnp.abs(m - centre[None]), 0.0), 0)
+    half = spread + 5.0 * jnp.sqrt(median_variance(count)) * noise
+    grid = lead(centre) + jnp.asarray(np.linspace(-1.0, 1.0, MEDIAN_GRID), dtype).reshape(shape) * lead(half)
+    counts = below(grid, jnp.int32(-1))
+    acc = []
+    for rank in (lower, upper):
+        cumulative = jnp.cumsum(counts, axis=0)  # P(N <= k)
+        tail = at_rank(cumulative, rank - 1)  # P(X_(r) > x) = P(N(x) < r)
+        h = grid[1:] - grid[:-1]
+        first = grid[0] + jnp.sum(h * 0.5 * (tail[1:] + tail[:-1]), 0)
+        second = grid[0] ** 2 + jnp.sum(h * (grid[1:] * tail[1:] + grid[:-1] * tail[:-1]), 0)
+        acc.append((first, jnp.maximum(second - first * first, 0.0)))
+    flat = spread < noise
+    (e_lo, var_lo), (e_hi, var_hi) = ((jnp.where(flat, a[0], b[0]), jnp.where(flat, a[1], b[1]))
+                                      for a, b in zip(acc, edge, strict=True))
+    # The two middle values' correlation: the identical case's within the noise; across an edge they
+    # are two neighbours' own values, independent.
+    rho = jnp.asarray(_median_variances()[1])[count] * jnp.where(flat, 1.0, 0.5)
     odd = count % 2 == 1
     mean = jnp.where(odd, e_lo, 0.5 * (e_lo + e_hi))
     var = jnp.where(odd, var_lo, 0.25 * (var_lo + var_hi + 2.0 * rho * jnp.sqrt(var_lo * var_hi)))
@@ -186,8 +275,7 @@ class SpatialFilter(AbstractProcessing):
             total = sum(jnp.where(o, d, 0.0) for d, o in zip(devs, ok, strict=True))
             shift = total / jnp.maximum(count, 1.0)
         else:
-            stacked = jnp.stack([jnp.where(o, d, jnp.nan) for d, o in zip(devs, ok, strict=True)])
-            shift = jnp.where(count > 0, jnp.nanmedian(jnp.where(count[None] > 0, stacked, 0.0), axis=0), 0.0)
+            shift = jnp.where(count > 0, masked_median(devs, ok), 0.0)
         return centre + shift, count
 
     def sample(self, s: Samples) -> Samples:
