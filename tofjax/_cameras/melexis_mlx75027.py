@@ -183,11 +183,13 @@ PRESET = Preset(
         # --- timing
         "timing.frame_rate_hz": (60.0, "quoted: [mlx75027] p.12, use case B: '60 distance frames per second'"),
         "timing.readout_time_s": (
-            1.521e-3, "derived: [mlx75027] p.37 eq. 3, the time from one phase's integration to the next: (PRETIME + "
-                      "7 + rows + Px_PHASE_IDLE) x HMAX / 120 us, HMAX = 0x02B6 = 694 (Table 23, p.33: A-B, 4 lanes, "
-                      "960 Mbps, use case B), PRETIME = ROUNDUP(50 x 120 / HMAX) = 9 (p.34), 242 row pairs of VGA "
-                      "(ROI_ROW_END = 241, p.48), Px_PHASE_IDLE = 5 (Table 26, p.43): 263 x 5.783 us = 1521 us "
-                      "(Fig. 7's plotted frame rates imply about 1.68 ms)"),
+            1.822e-3, "fitted: [mlx75027] Fig. 7 (p.13), 'Theoretical Maximum Distance Frame Rate' at 960 Mbps (4 "
+                      "lanes, use case B's), read at 21 integration times 0-1000 us (+-0.3 fps): tofjax's maximum "
+                      "1 / (4 (t + t_ro)) by least squares (the slope is 4.000 per us, as it must be): t_ro = 1.822 "
+                      "ms meets every point within 0.2 fps (1.818-1.826 ms within 0.5 fps; 117.8 fps at 300 us, "
+                      "p.1 'max. 120 FPS ... Tint 300µs'). The register formula (p.37 eq. 3, HMAX 694, 263 rows "
+                      "per phase) gives 1.521 ms plus PLLSETUP 0.549 ms per frame (p.34): about 28 rows per phase "
+                      "fewer than the figure"),
         # --- the frame
         "frame.illumination_falloff_exponent": (
             0.0, "derived: a batwing diffuser evens the irradiance on a plane ([fxtof1] 'batwing profile diffuser'): "
