@@ -146,6 +146,9 @@ def test_a_sourced_preset_predicts_what_its_camera_delivers(name):
     within a factor 2; a row it does not is named in the preset with its physical reason."""
     p = PRESETS[name]
     files = _files_of(name)
+    if not p.product:  # a reference camera on a sensor: nothing published to meet (its docs page says so)
+        assert not files and "NOT a product" in p.title
+        return
     assert files, f"{name}: no published specification or characterisation in fitting/validation"
     missed = {}
     for c in fitting.compare(files, preset_config(name)):

@@ -15,7 +15,8 @@ sets says what kind of value it is, as the first word of its note:
 
 Keys that are not the camera's, the operating point (``[scene]``), another camera's light
 (``[interference]``) and the simulation's own choices (:data:`NOT_THE_CAMERA`), keep their defaults
-and say so. A key of a camera that a preset neither sets nor covers by a section's source is
+and say so; three ``[scene]`` keys are the camera's all the same (:data:`CAMERA_IN_SCENE`: its optical
+band-pass filter and the exposure of the mode it models). A key of a camera that a preset neither sets nor covers by a section's source is
 *unsourced* (:meth:`Preset.unsourced`): the rendered TOML marks it, and a preset of a real camera
 has none (tests/test_presets.py).
 
@@ -43,6 +44,8 @@ UNKNOWN = "unsourced: no source for this camera; the default (the thesis' verifi
 NOT_THE_CAMERA_SECTIONS = ("scene", "interference")
 NOT_THE_CAMERA = ("pixel.noise", "pixel.iterations", "pixel.temperature_c", "frame.seed", "frame.subpixel_samples",
                   "frame.mixed_spread_fraction")
+#: Keys of ``[scene]`` that are a property of the camera: its band-pass filter, its mode's exposure.
+CAMERA_IN_SCENE = ("scene.filter_half_width_m", "scene.integration_time_s", "scene.integration_time_per")
 _NOT_THE_CAMERA_NOTE = ("not the camera's: the operating point or the simulation's choice (set it to your "
                         "measurement's; default: the thesis' §5.5.1)")
 
@@ -54,6 +57,8 @@ def quoted(values: Mapping[str, tuple[Any, str]]) -> dict[str, tuple[Any, str]]:
 
 def camera_key(dotted: str) -> bool:
     """Whether ``dotted`` is a property of the camera (not :data:`NOT_THE_CAMERA`)."""
+    if dotted in CAMERA_IN_SCENE:
+        return True
     return dotted.partition(".")[0] not in NOT_THE_CAMERA_SECTIONS and dotted not in NOT_THE_CAMERA
 
 
@@ -68,6 +73,8 @@ class Preset:
       colon, and names a reference tag;
     - ``section_sources``: section -> note (with its kind) for every key of the section the preset
       does not set (the thesis preset: its tables);
+    - ``product``: whether the preset is a product one can buy (a reference camera on a sensor, built
+      from its datasheet and stated typical parts, is not: it has no published performance to meet);
     - ``unmet``: the rows of the camera's published specification or characterisation
       (``fitting/validation/``) that the preset does not meet, each with the physical reason:
       ``"<file>:<column>:line <n>"`` (the row's line in the file) -> reason (tests/test_presets.py holds every other row to
@@ -80,6 +87,7 @@ class Preset:
     values: Mapping[str, tuple[Any, str]]
     section_sources: Mapping[str, str] = dataclasses.field(default_factory=dict)
     unmet: Mapping[str, str] = dataclasses.field(default_factory=dict)
+    product: bool = True
 
     def __post_init__(self):
         for dotted, (_, note) in self.values.items():

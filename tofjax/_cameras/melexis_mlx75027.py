@@ -232,6 +232,8 @@ PRESET = Preset(
         # --- the camera's own operating point and filter (in [scene]: the keys tofjax has for them)
         "scene.integration_time_s": (
             600e-6, "quoted: [mlx75027] p.12, use case B: '600 µs integration time' (per phase, p.41)"),
+        "scene.integration_time_per": ("phase_image", "derived: the datasheet's integration time is set per phase "
+                                                      "(raw frame; section 7.13), tofjax's unit"),
         "scene.filter_half_width_m": (
             28e-9, "derived: the widest band-pass that the datasheet's '120KLUX robust when using lens with filter' "
                    "([mlx75027] p.1) allows in use case B: 120 klx of sunlight on a 90 % target, this lens (k 0.85, "
@@ -239,4 +241,5 @@ PRESET = Preset(
                    "+-28 nm. A VCSEL's narrow, slowly drifting line would allow a narrower filter, which no source "
                    "here states"),
     },
+    product=False,
 )

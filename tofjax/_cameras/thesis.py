@@ -50,6 +50,11 @@ PRESET = Preset(
         "illumination_waveform.extra_modulation_frequencies_hz": (
             [], "quoted: [thesis] Table A.1: one modulation frequency, 80.32 MHz"),
         "illumination_waveform.frequency_fusion": ("inverse_variance", "derived: one frequency: nothing to fuse"),
+        "scene.filter_half_width_m": (0.0, "quoted: [thesis] §5.5.2: 'The ToF sensor does not have an optical filter "
+                                          "applied'"),
+        "scene.integration_time_s": (2e-3, "quoted: [thesis] Table A.1 and §5.5.1: 2 ms per phase image"),
+        "scene.integration_time_per": ("phase_image", "quoted: [thesis] Table A.1: the exposure of each of the 4 "
+                                                      "phase images"),
     },
     section_sources={
         "illumination": "quoted: [thesis] Table 4.2",
