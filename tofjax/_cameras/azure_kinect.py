@@ -179,8 +179,8 @@ PRESET = Preset(
         "pixel.c_sample_and_hold_f": (C_EFF_F, "derived: equal to c_diode_f (fitted): the floor sqrt(6 k T C) / e of "
                                                "tofjax's kTC model assumes C_d = C_sh; only the floor is fitted"),
         "pixel.n_phases": (3, "derived: [docs] D1: 9 raw images per depth frame ([hwspec] '9 IR pulses'; [sdk] "
-                              "src/depth_mcu/depthcommands.h l. 26-29: 5310760 B = 9 x 640 x 576 x 12 bit + 2344 B "
-                              "of header) = 3 phases at 3 frequencies, as its predecessor's '3 phases at 3 "
+                              "src/depth_mcu/depthcommands.h 'SENSOR_MODE_LONG_THROW_NATIVE_SIZE (5310760)' = 9 x 640 x "
+                              "576 x 1.6 B + 2344 B) = 3 phases at 3 frequencies, as its predecessor's '3 phases at 3 "
                               "frequencies' (libfreenect2 issue #747)"),
         "pixel.v_reset_v": (2.9, "derived: no effect: with pixel.full_well_e set and no SBI the well is full_well_e and "
                                  "the taps' voltages enter no prediction (docs/model.md 'Full well'); 2.9 V nominal"),
@@ -202,7 +202,7 @@ PRESET = Preset(
                                         "factory'; processing.calibration removes the offset"),
         "pixel.phase_drift_rad_per_c": (
             0.0, "derived: compensated: the depth engine receives the sensor's and the lasers' temperatures each frame "
-                 "([sdk] include/k4ainternal/k4aplugin.h l. 149-150 'float sensor_temp', 'float laser_temp[2]') and "
+                 "([sdk] include/k4ainternal/k4aplugin.h 'float sensor_temp', 'float laser_temp[2]') and "
                  "each unit's calibration carries 'ThermalAdjustmentParams'; [tolgyessy2021]: 'The device, however, "
                  "has to be warmed up for at least 40–50 min to give stable results' (a transient, not modelled)"),
         "pixel.readout_noise_e": (0.0, "derived: the whole read-noise floor is in the kTC terms (c_diode_f, fitted)"),
@@ -219,14 +219,14 @@ PRESET = Preset(
                              "the 'Global shutter that allows for improved performance in sunlight'"),
         # --- adc ----------------------------------------------------------------------------------
         "adc.enabled": (False, "derived: the per-pixel gain selection ([depthcam]) and the 12-bit compressed raw "
-                               "format ([sdk] src/dewrapper/dewrapper.c l. 92-95) keep the quantisation below the "
+                               "format ([sdk] src/dewrapper/dewrapper.c) keep the quantisation below the "
                                "temporal noise at every signal; tofjax's ADC is one linear gain, so the readout is "
                                "modelled without quantisation"),
         "adc.v_ref_pos_v": (1.075, "derived: no effect on depth with adc.enabled false: it scales the amplitude's LSB "
                                    "only (the raw format is undocumented, 'this is an area of the technology that we "
                                    "as a company are not yet ready to share', issue #509)"),
         "adc.v_ref_neg_v": (0.275, "derived: no effect on depth (see v_ref_pos_v)"),
-        "adc.resolution_bits": (12, "derived: [sdk] src/dewrapper/dewrapper.c l. 92-95: "
+        "adc.resolution_bits": (12, "derived: [sdk] src/dewrapper/dewrapper.c: "
                                     "'K4A_DEPTH_ENGINE_INPUT_TYPE_12BIT_COMPRESSED' (the transported raw; scales the "
                                     "amplitude's LSB only with adc.enabled false)"),
         "adc.offset_error_lsb": (0.0, "derived: no effect with adc.enabled false; a calibrated product"),
@@ -244,8 +244,9 @@ PRESET = Preset(
         "scene.filter_half_width_m": (
             18.5e-9, "derived: the camera's band-pass is not published (a property of the camera kept in [scene]); "
                      "[opt8241] 'Integrated Optical Band-Pass Filter (830 nm to 867 nm)', an 850 nm ToF sensor's "
-                     "filter: half width 18.5 nm. It must pass the laser's line and its thermal drift (GaAs: ~0.26 "
-                     "nm/K) and the oblique rays of a 75 deg lens, so a narrow filter is excluded ([docs] D2)"),
+                     "filter: half width 18.5 nm. It must pass the laser's line, its thermal drift (~0.26 nm/K for "
+                     "GaAs, a textbook value) and the oblique rays of a 75 deg lens, so a narrow filter is "
+                     "excluded ([docs] D2)"),
         # --- frame --------------------------------------------------------------------------------
         "frame.baseline_m": ([-0.014, 0.0], "quoted: [gh812] wes-b (Microsoft): 'NFOV: [-14, 0, 1] ... units are "
                                             "millimeters', read as the illuminator's position from the lens (the "
@@ -299,7 +300,8 @@ PRESET = Preset(
             "box", "derived: [docs] D5: the engine filters spatially ([gh789], depth 'interpolated at surface edge', "
                    "labelled 'By Design'; its algorithm is closed, [sdk]); its predecessor's engine averages each "
                    "frequency's phasor over 3 x 3 Gaussian weights (sigma 3 px: a box, [lf2] l. 53-61), which tofjax's "
-                   "box filters each frequency's phase before the fusion"),
+                   "box filters each frequency's phase before the fusion. Without a filter the corner would need "
+                   "69 W, 1.17 W of light, more than the depth system's 950 mW ([depthcam2019])"),
         "processing.spatial_filter_size": (3, "derived: [lf2] l. 53-61, the predecessor's 3 x 3 kernel (see "
                                               "spatial_filter)"),
         "processing.temporal_average_frames": (1, "quoted: [gh1218] rabbitdaxi (Microsoft): 'the depth processing in "
