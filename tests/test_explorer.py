@@ -34,7 +34,7 @@ def _set(ex, dotted, value, index=0):
 
 def test_every_key_sits_in_exactly_one_tab_with_its_unit_and_range():
     ex = tj.explorer()
-    assert ex.tabs.titles == ("Main", "Pixel", "Scene & Camera", "Physical & ADC", "Frame")
+    assert ex.tabs.titles == ("Main", "Pixel", "Scene & Camera", "Physical & ADC", "Processing", "Frame")
     assert set(ex.fields) == {k.dotted for k in KEYS}
     tab_of = {}
     for title, tab in zip(ex.tabs.titles, ex.tabs.children, strict=True):
@@ -228,7 +228,7 @@ def test_calculate_runs_the_sweep_with_busy_lamp_time_and_the_ticked_plots():
     assert f"distance_{first_name}.png" in ex.plots_box.children[0].children[1].children[0].tooltip
     # Another sweep variable before: nothing to overlay.
     assert not any(line.get_gid() == plots.OVERLAY_GID for fig in ex.figures.values() for line in fig.axes[0].lines)
-    # Several frequencies, analytically: the fused noise (no wrong-unwrap fraction).
+    # Several frequencies, analytically: the fused noise and the wrong-unwrap rate's closed form.
     _set(ex, "illumination_waveform.extra_modulation_frequencies_hz", "60.24e6")
     previous = ex.run
     ex.calculate()
@@ -238,7 +238,8 @@ def test_calculate_runs_the_sweep_with_busy_lamp_time_and_the_ticked_plots():
     np.testing.assert_array_equal(grey[0].get_ydata(), 1e3 * np.asarray(previous.result.depth_std_m))
     assert fig.get_suptitle().endswith("grey: previous run")
     assert ex.message.value == "" and ex.run.multifrequency.fusion == "inverse_variance"
-    assert np.all(np.isnan(ex.run.multifrequency.wrong_unwrap_fraction))
+    wrong = np.asarray(ex.run.multifrequency.wrong_unwrap_fraction)
+    assert np.all((wrong >= 0) & (wrong <= 1))
     # The summary's range is the plots' range: the extended one (the first frequency's named as such).
     extended = float(ex.run.multifrequency.extended_range_m)
     assert f"extended range {extended:.4g} m" in ex.summary.value

@@ -7,8 +7,9 @@ the result's headline numbers, its plots (zoomable with ipympl, each with "save 
 CSV", the previous run of the same sweep grey behind), "save figures" and "write report"),
 **Pixel** (pixel, illumination and reference waveforms, with live previews of the waveforms and of
 the phase images' correlation functions),
-**Scene & Camera** (illumination unit, scene, camera, with a live FoV preview and the derived lens)
-and **Physical & ADC** (physical constants, read-only, and the ADC).
+**Scene & Camera** (illumination unit, scene, camera, with a live FoV preview and the derived lens),
+**Physical & ADC** (physical constants, read-only, and the ADC) and **Processing** (the camera's
+own depth processing: calibration, filters, invalidation; not in the thesis' GUI).
 
 Every configuration key of the schema has one input with its unit and allowed range next to it.
 Each change re-validates the whole configuration (:func:`tofjax.config_from_dict`): an invalid
@@ -70,6 +71,7 @@ _TAB_SECTIONS = {
     "Pixel": ("pixel", "illumination_waveform", "reference_waveform"),
     "Scene & Camera": ("illumination", "scene", "camera", "timing", "interference", "frame"),
     "Physical & ADC": ("adc",),
+    "Processing": ("processing",),
 }
 _CONSTANT_UNITS = {"boltzmann_j_per_k": "J/K", "elementary_charge_c": "C", "speed_of_light_m_per_s": "m/s",
                    "planck_j_s": "J s", "luminous_efficacy_lm_per_w": "lm/W"}
@@ -433,12 +435,17 @@ class Explorer:
                     self.correlation_image]
         elif title == "Scene & Camera":
             side = [w.HTML("<b>Illumination field of view</b>"), self.fov_image, self.derived]
+        elif title == "Processing":
+            side = [w.HTML("<b>The camera's own processing</b> after the demodulation, in this order: its "
+                           "factory calibration, a spatial filter, a temporal average, its invalidation "
+                           "(docs/model.md, \"The camera's processing\"). A sweep's point is the centre of a "
+                           "uniform patch; a frame filters its image.")]
         else:
             constants = PhysicalConstants()
             table = "".join(f"<tr><td>{name}</td><td>{float(getattr(constants, name)):.10g} {unit}</td></tr>"
                             for name, unit in _CONSTANT_UNITS.items())
             side = [w.HTML(f"<b>Physical constants</b> (Table 4.1, exact SI values; fixed)<table>{table}</table>")]
-        if title != "Physical & ADC":  # the previews say when they show the last valid settings
+        if title not in ("Physical & ADC", "Processing"):  # the previews say when they show the last valid settings
             self._tab_notes.append(w.HTML(""))
             side.insert(0, self._tab_notes[-1])
         return w.HBox([w.VBox(rows), w.VBox(side)], layout=w.Layout(flex_flow="row wrap"))
