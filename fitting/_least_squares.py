@@ -201,7 +201,9 @@ def fit_least_squares(problem: Problem, rows, *, max_steps: int = 256, rtol: flo
                             f"{_explain(names[i], names[j])}; {_product_note(theta, cov, i, j)}")
     with np.errstate(invalid="ignore", divide="ignore"):
         cov_u = cov / np.outer(dtheta, dtheta)
-    flags = bound_flags(problem, np.asarray(theta), np.sqrt(np.diag(cov)))
+    # Of bounds only, the sigmas are the change residuals' widths, not a measurement: no flag by them.
+    flags = bound_flags(problem, np.asarray(theta), np.sqrt(np.diag(cov)) if not problem.bounds_only
+                        else np.full(n_params, np.inf))
     return LeastSquaresResult(
         names=names, units=problem.units, initial=np.asarray(problem.initial), estimate=np.asarray(theta),
         sigma=np.sqrt(np.diag(cov)), covariance=cov, correlation=corr, unconstrained=np.asarray(u),
