@@ -39,8 +39,9 @@ import jax.numpy as jnp
 import numpy as np
 import tofjax as tj
 from tofjax.schema import KEY_BY_DOTTED
+from tofjax.sweepfile import bound_column
 
-from ._compare import BoundCheck, judge_bounds
+from ._compare import BoundCheck, _quantity_value, judge_bounds
 from ._data import SweepRows
 from ._least_squares import AT_BOUND
 from ._problem import (BOUND_ACTIVE, PERIOD_PARAMETERS, Problem, batched_bound_margins, bound_rows, reading_period,
@@ -87,7 +88,7 @@ class BoundsAtSolution:
 
     def as_dict(self, rows: list[SweepRows]) -> dict:
         def per_row(i, b, k):
-            return {"line": _line(rows[i], k), "bound": _num(b.bound[k]), "model": _num(b.model[k]),
+            return {"line": rows[i].line(k), "bound": _num(b.bound[k]), "model": _num(b.model[k]),
                     "met": bool(b.met[k]), "margin": _num(b.margin[k])}
 
         files = [{"file": rows[i].path, "bounds": [
@@ -100,10 +101,6 @@ class BoundsAtSolution:
 def _num(x) -> float | str:
     x = float(x)
     return x if math.isfinite(x) else ("inf" if x > 0 else ("-inf" if x < 0 else "nan"))
-
-
-def _line(r: SweepRows, k: int) -> int:
-    return int(r.lines[k]) if r.lines is not None else k + 1
 
 
 def bounds_at(problem: Problem, theta, rows: list[SweepRows], hard: list[tuple]) -> BoundsAtSolution:
@@ -119,10 +116,10 @@ def bounds_at(problem: Problem, theta, rows: list[SweepRows], hard: list[tuple])
         judged = judge_bounds([(b.column, b.statement, b.values) for b in r.bounds], model,
                               np.asarray(r.sweep.distance_m), np.asarray(obs.depth_mean_m)[rows_of], guess)
         checks.append((i, judged))
-        wrapped, period = wrapped_rows(r), reading_period(r)
+        wrapped, period = wrapped_rows(r), reading_period(r.params, r.frequencies_hz)
         for b in judged:
             for k in np.flatnonzero(np.isfinite(b.bound)):
-                entry = {"file": r.path, "line": _line(r, k), "column": b.column, "statement": b.statement,
+                entry = {"file": r.path, "line": r.line(k), "column": b.column, "statement": b.statement,
                          "bound": float(b.bound[k]), "model": _num(b.model[k])}
                 if not b.met[k]:
                     if b.quantity == "depth_error_m" and wrapped[k]:
@@ -282,24 +279,13 @@ def physical_flags(config: tj.Config, rows: list[SweepRows], problem: Problem, t
     return flags
 
 
-def _value(quantity: str, x) -> str:
-    from ._compare import _quantity_value
-
-    return _quantity_value(quantity, float(x))
-
-
-def _row(entry: dict, quantity_of) -> str:
-    """``spec.csv line 16: depth_std_m_le (bound 5 mm, model 4.995 mm)``."""
-    q = quantity_of(entry["column"])
+def _row(entry: dict) -> str:
+    """``spec.csv line 16: depth_std_m_le (bound 5 mm, model 4.995 mm)``, and why where it says."""
+    q = bound_column(entry["column"])[0]
     model = entry["model"] if isinstance(entry["model"], float) else float("nan")
-    return (f"{Path(entry['file']).name} line {entry['line']}: {entry['column']} (bound {_value(q, entry['bound'])}, "
-            f"model {_value(q, model)})" + (f": {entry['reason']}" if entry.get("reason") else ""))
-
-
-def _quantity(column: str) -> str:
-    from tofjax.sweepfile import bound_column
-
-    return bound_column(column)[0]
+    return (f"{Path(entry['file']).name} line {entry['line']}: {entry['column']} (bound "
+            f"{_quantity_value(q, entry['bound'])}, model {_quantity_value(q, model)})"
+            + (f": {entry['reason']}" if entry.get("reason") else ""))
 
 
 def interval_line(p: dict) -> str:
@@ -335,7 +321,7 @@ def row_lines(b: BoundsAtSolution, *, limit: int | None = None) -> list[str]:
     lines = []
     for title, entries in (("active", b.active), ("not met", b.unmet)):
         shown = entries if limit is None else entries[:limit]
-        lines += [f"{title}: {_row(e, _quantity)}" for e in shown]
+        lines += [f"{title}: {_row(e)}" for e in shown]
         if len(entries) > len(shown):
             lines.append(f"{title}: ... and {len(entries) - len(shown)} more rows (report.md lists them)")
     return lines

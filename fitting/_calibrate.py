@@ -224,7 +224,7 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
                     r.data[name][1][k] = False
                 r.reasons[k] = reason
                 r.excluded["at_solution"] = r.excluded.get("at_solution", 0) + 1
-                excluded.append({"file": r.path, "line": _line(r, k), "reason": reason})
+                excluded.append({"file": r.path, "line": r.line(k), "reason": reason})
             if sum(len(r.used(n)) for r in rows for n in OBSERVABLES) < len(parameters):
                 raise CalibrationInputError("the fitted model cannot measure the rows the fit needs: "
                                             + "; ".join(f"{Path(e['file']).name}:{e['line']}: {e['reason']}" for e in excluded))
@@ -235,7 +235,7 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
         hard = _hard_at(problem, ls.estimate) if problem.bounded else None
     else:
         hard = _hard_at(problem, ls.estimate)  # the hard model at the estimate, once for both lists
-        unexplained = [{"file": rows[i].path, "line": _line(rows[i], k),
+        unexplained = [{"file": rows[i].path, "line": rows[i].line(k),
                         "reason": f"{reason}, where the camera measured it"}
                        for i, k, reason in invalid_at(problem, ls.estimate, rows, hard)]
         edge = at_limit(problem, ls.estimate, rows, hard)
@@ -265,9 +265,6 @@ def _inside(p, value: float) -> float:
     return value
 
 
-def _line(r: SweepRows, k: int) -> int:
-    """The file line of row ``k`` of ``r``."""
-    return int(r.lines[k]) if r.lines is not None else k + 1
 
 
 def _used(r: SweepRows) -> np.ndarray:
@@ -297,7 +294,7 @@ def at_limit(problem: Problem, theta, rows: list[SweepRows], hard: list[tuple] |
     for i, rows_of, obs in _hard_at(problem, theta) if hard is None else hard:
         headroom = np.asarray(obs.headroom)[rows_of]
         for k in np.flatnonzero(_used(rows[i]) & (headroom > 0.0) & (headroom < 2 * VALID_MARGIN)):
-            out.append({"file": rows[i].path, "line": _line(rows[i], k), "headroom": float(headroom[k])})
+            out.append({"file": rows[i].path, "line": rows[i].line(k), "headroom": float(headroom[k])})
     return out
 
 
@@ -594,7 +591,7 @@ def _report(cal: Calibration, figures: list[Path], comparisons=()) -> Summary:
                     f"{used}; left out: {r.excluded['saturated']} with saturated frames, {r.excluded['low_snr']} "
                     f"below the SNR limit, {r.excluded.get('at_solution', 0)} the fitted model cannot measure")
         for k, why in sorted(r.reasons.items()):
-            data.append(f"{Path(r.path).name} line {_line(r, k)}: {why}")
+            data.append(f"{Path(r.path).name} line {r.line(k)}: {why}")
     report.sections.append(Section("Data", [data]))
     if cal.problem.validity:  # every measured row constrains the fit (calibrate's docstring)
         limits = ["Every row the fit uses is held where the model measures it (a camera that delivered a row was "

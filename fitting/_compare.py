@@ -50,7 +50,7 @@ from tofjax.schema import OPERATING_POINT_COLUMNS, SWEEP_AXES
 from tofjax.sweepfile import BOUND_RELATIONS, bound_column
 
 from ._data import Measurement, read_measurement
-from ._problem import DENSE_POINTS, dense_sweep, hard_observables, nearest_period, under_common_lamp
+from ._problem import DENSE_POINTS, dense_sweep, hard_observables, nearest_period, reading_period, under_common_lamp
 
 #: Ratios within this factor of 1 count as agreeing in the summaries (30 %).
 AGREEMENT = 0.3
@@ -189,9 +189,7 @@ def compare_measurement(m: Measurement) -> FileComparison:
         value = np.asarray(getattr(obs, name))
         return value[:n] if part == "rows" else value[n:]
 
-    c = float(m.config.params.constants.speed_of_light_m_per_s)
-    period = (float(tj.stats.extended_range_m(m.frequencies_hz, c)) if len(m.frequencies_hz) > 1
-              else c / (2.0 * m.frequencies_hz[0]))
+    period = reading_period(m.config.params, m.frequencies_hz)
     truth = np.asarray(m.sweep.distance_m)
     model = {name: get(name, "rows") for name in _QUANTITIES}
     model["depth_mean_m"] = np.asarray(nearest_period(model["depth_mean_m"], truth, period))

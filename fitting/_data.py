@@ -117,6 +117,10 @@ class SweepRows:
             out |= np.isfinite(b.values)
         return out
 
+    def line(self, k: int) -> int:
+        """The file line of row ``k``."""
+        return int(self.lines[k]) if self.lines is not None else k + 1
+
     def used(self, name: str) -> np.ndarray:
         """Indices of the rows of observable ``name`` that enter the fit."""
         return np.flatnonzero(self.data[name][1])

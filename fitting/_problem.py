@@ -279,18 +279,18 @@ def under_common_lamp(params: tj.Params) -> tuple[tj.Params, float]:
 PERIOD_PARAMETERS = ("illumination_waveform.modulation_frequency_hz",)
 
 
-def reading_period(r: SweepRows) -> float:
-    """The period a file's camera reads depth in, m: its unambiguity range c / (2 f), or the extended
-    range of its frequencies."""
-    c = float(r.params.constants.speed_of_light_m_per_s)
-    freqs = tuple(r.frequencies_hz) or (float(r.params.illumination_waveform.modulation_frequency_hz),)
+def reading_period(params: tj.Params, frequencies_hz) -> float:
+    """The period a camera of ``params`` measuring at ``frequencies_hz`` reads depth in, m: its
+    unambiguity range c / (2 f), or the extended range of its frequencies."""
+    c = float(params.constants.speed_of_light_m_per_s)
+    freqs = tuple(frequencies_hz) or (float(params.illumination_waveform.modulation_frequency_hz),)
     return float(tj.stats.extended_range_m(freqs, c)) if len(freqs) > 1 else c / (2.0 * freqs[0])
 
 
 def wrapped_rows(r: SweepRows) -> np.ndarray:
     """Rows of ``r`` at or beyond its camera's reading period: its reading wraps there and is short by
     the period, so no parameter but the frequency meets an accuracy bound (``depth_error_m``) there."""
-    return np.asarray(r.sweep.distance_m) >= reading_period(r)
+    return np.asarray(r.sweep.distance_m) >= reading_period(r.params, r.frequencies_hz)
 
 
 def _groups(rows: list[SweepRows], merge_lamps: bool = True, keep_wrapped: bool = False) -> tuple[FileGroup, ...]:
@@ -681,8 +681,7 @@ def bound_rows(problem: Problem, rows: list[SweepRows]) -> list[dict | None]:
             for i in group.files:
                 values, columns = tightest(rows[i], quantity, upper)
                 for k, (v, c) in enumerate(zip(values, columns, strict=True)):
-                    line = int(rows[i].lines[k]) if rows[i].lines is not None else k + 1
-                    out.append(None if c is None else {"file": i, "row": k, "line": line, "column": c,
+                    out.append(None if c is None else {"file": i, "row": k, "line": rows[i].line(k), "column": c,
                                                        "bound": float(v)})
     return out
 
