@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 _EXPORTS = {
     "Calibration": "_calibrate", "calibrate": "_calibrate",
+    "BoundsAtSolution": "_bounds", "physical_flags": "_bounds",
     "SweepRows": "_data", "load_rows": "_data", "Measurement": "_data", "read_measurement": "_data",
     "FileComparison": "_compare", "compare": "_compare", "write_comparison": "_compare",
     "BoundCheck": "_compare", "check_bounds": "_compare",
@@ -39,6 +40,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # pragma: no cover
+    from ._bounds import BoundsAtSolution, physical_flags  # noqa: F401
     from ._calibrate import Calibration, calibrate  # noqa: F401
     from ._compare import BoundCheck, FileComparison, check_bounds, compare, write_comparison  # noqa: F401
     from ._data import Measurement, SweepRows, load_rows, read_measurement  # noqa: F401

@@ -20,13 +20,15 @@ import tofjax as tj
 from tofjax.outputs import save_figure, write_text
 from tofjax.report import Code, Figure, Section, Summary, Table
 from tofjax.schema import SWEEP_AXES, get_leaf, render_toml
-from tofjax.sweepfile import utc_now
+from tofjax.sweepfile import BOUND_RELATIONS, utc_now
 
+from ._bounds import PINNED_WIDTH, BoundsAtSolution, bounds_at, headline, physical_flags, row_lines
 from ._compare import FileComparison, compare_measurements, write_comparison
 from ._data import OBSERVABLES, SweepRows, load_rows, read_measurement, reason_kind
 from ._least_squares import ConvergenceError, LeastSquaresResult, fit_least_squares
 from ._parameters import CalibrationInputError, make_parameters
-from ._problem import VALID_MARGIN, Problem, batched_curves, build_problem, hard_observables, nearest_period
+from ._problem import (ANCHOR_LINEAR_WIDTH, BOUND_MARGIN, BOUND_SCALE, VALID_MARGIN, Problem, batched_curves,
+                       build_problem, hard_observables, nearest_period)
 
 if TYPE_CHECKING:  # emcee (and scipy through it) are imported only when a posterior is sampled
     from ._posterior import PosteriorResult
@@ -56,6 +58,10 @@ class Calibration:
     at_limit: list[dict] = dataclasses.field(default_factory=list)
     #: The command line that produced it (set by the CLI).
     command: str = ""
+    #: Where files state bounds: which hold at the solution, which are active, the interval of every
+    #: free parameter and whether the bounds pin it, and the physical limits the fitted values break
+    #: (:class:`fitting._bounds.BoundsAtSolution`); ``None`` without bounds.
+    bounds: BoundsAtSolution | None = None
 
     @property
     def estimates(self) -> dict[str, float]:
@@ -76,11 +82,22 @@ class Calibration:
         return dataclasses.replace(self, posterior=post)
 
     def calibrated_config(self) -> tj.Config:
-        """The input configuration with the least-squares estimates."""
+        """The input configuration with the least-squares estimates; :class:`tofjax.ConfigError` where
+        they break its checks (a quantum efficiency above 1: :attr:`refused`)."""
         config = self.config
         for name, value in self.estimates.items():
             config = config.replace(name, value)
         return config
+
+    @property
+    def refused(self) -> str | None:
+        """Why the configuration's checks refuse the estimates (a quantum efficiency above 1), or
+        ``None`` where they accept them: no ``calibrated.toml`` is written then."""
+        try:
+            self.calibrated_config()
+        except (tj.ConfigError, ValueError) as err:
+            return str(err)
+        return None
 
     def as_dict(self) -> dict:
         return {
@@ -95,6 +112,8 @@ class Calibration:
             "excluded_at_solution": self.excluded_at_solution, "unexplained": self.unexplained,
             "at_limit": self.at_limit,
             "true_values": true_values(self),
+            "bounds": self.bounds.as_dict(self.rows) if self.bounds is not None else None,
+            "calibrated_config_refused": self.refused,
             "least_squares": self.least_squares.as_dict(),
             "posterior": self.posterior.as_dict() if self.posterior is not None else None,
         }
@@ -105,26 +124,30 @@ class Calibration:
         out.mkdir(parents=True, exist_ok=True)
         written = []
         header = "".join(f"# calibrated by tofjax calibrate from {r.path}\n" for r in self.rows)
-        toml_path = out / "calibrated.toml"
-        write_text(toml_path, header + render_toml(self.calibrated_config().values))
+        if self.refused is None:  # else the report says why (a quantum efficiency above 1)
+            toml_path = out / "calibrated.toml"
+            written.append(write_text(toml_path, header + render_toml(self.calibrated_config().values)))
         json_path = out / "calibration.json"
         write_text(json_path, json.dumps(self.as_dict(), indent=2))
-        written += [toml_path, json_path]
+        written.append(json_path)
         comparisons = self.comparisons()
         written += _figures(self, out, comparisons)
         for stem, which in (("compare_initial", 0), ("compare_calibrated", 1)):  # their tables; the figures above
-            written += write_comparison([c[which] for c in comparisons], out, stem=stem, figures=False,
-                                        title=f"Measured vs model, {stem.split('_')[1]} parameters")
+            if all(c[which] is not None for c in comparisons):
+                written += write_comparison([c[which] for c in comparisons], out, stem=stem, figures=False,
+                                            title=f"Measured vs model, {stem.split('_')[1]} parameters")
         report = _report(self, [p for p in written if p.suffix == ".png"
                                 and p.name.startswith(("fit_", "residuals", "corner"))], comparisons)
         for name, text in (("report.md", report.markdown()), ("report.html", report.html())):
             written.append(write_text(out / name, text))
         return written
 
-    def comparisons(self) -> list[tuple[FileComparison, FileComparison]]:
+    def comparisons(self) -> list[tuple[FileComparison, FileComparison | None]]:
         """Per file, the comparison (:func:`fitting.compare`) with the initial and with the
-        calibrated parameters."""
+        calibrated parameters (``None`` where the configuration refuses those: :attr:`refused`)."""
         before = [read_measurement(r.path, self.config) for r in self.rows]
+        if self.refused is not None:
+            return [(c, None) for c in compare_measurements(before)]
         calibrated = self.calibrated_config()
         after = [read_measurement(r.path, calibrated) for r in self.rows]
         both = compare_measurements(before + after)
@@ -164,6 +187,16 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
     fit is repeated from the estimate, up to :data:`MAX_REFITS` times (if no row is left,
     :class:`CalibrationInputError` names them).
 
+    **Published specifications** (format 4 files, ``source: specification``; bounds beside measured
+    columns too): each bound row holds the model on its met side (a one-sided residual,
+    :mod:`fitting._problem`), judged as ``tofjax compare`` judges it. With no measured row at all the
+    fit is the smallest change from the starting configuration that meets every bound (a change
+    residual per free parameter: ln(value / start) / ln 2 for a positive one). ``Calibration.bounds``
+    (:class:`fitting.BoundsAtSolution`) says which bounds hold at the solution and which are active,
+    each free parameter's interval over which they still hold and whether they pin it, and the
+    physical limits the estimate breaks (laser class 1 by the eye-safety estimate, a quantum
+    efficiency above 1, a parameter at the edge of its range: :func:`fitting.physical_flags`).
+
     An unconverged least squares still returns (``least_squares.converged`` is ``False``; no
     posterior is sampled), so its diagnostics can be written; the CLI then exits with status 1.
     """
@@ -191,7 +224,7 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
                     r.data[name][1][k] = False
                 r.reasons[k] = reason
                 r.excluded["at_solution"] = r.excluded.get("at_solution", 0) + 1
-                excluded.append({"file": r.path, "line": _line(r, k), "reason": reason})
+                excluded.append({"file": r.path, "line": r.line(k), "reason": reason})
             if sum(len(r.used(n)) for r in rows for n in OBSERVABLES) < len(parameters):
                 raise CalibrationInputError("the fitted model cannot measure the rows the fit needs: "
                                             + "; ".join(f"{Path(e['file']).name}:{e['line']}: {e['reason']}" for e in excluded))
@@ -199,13 +232,18 @@ def calibrate(paths, config: tj.Config | None = None, *, fit, bounds=None, prior
                                for p, v in zip(parameters, ls.estimate, strict=True))
             problem = build_problem(parameters, rows, smooth, relative_error, validity=False)
             ls = fit_least_squares(problem, rows, max_steps=max_steps, throw=False)
+        hard = _hard_at(problem, ls.estimate) if problem.bounded else None
     else:
         hard = _hard_at(problem, ls.estimate)  # the hard model at the estimate, once for both lists
-        unexplained = [{"file": rows[i].path, "line": _line(rows[i], k),
+        unexplained = [{"file": rows[i].path, "line": rows[i].line(k),
                         "reason": f"{reason}, where the camera measured it"}
                        for i, k, reason in invalid_at(problem, ls.estimate, rows, hard)]
         edge = at_limit(problem, ls.estimate, rows, hard)
-    cal = Calibration(config, rows, problem, ls, None, excluded, unexplained, edge)
+    bounds = None
+    if problem.bounded:  # which bounds hold, which keys they pin, which physical limits the estimate breaks
+        bounds = bounds_at(problem, ls.estimate, rows, hard)
+        bounds.physical = physical_flags(config, rows, problem, ls.estimate)
+    cal = Calibration(config, rows, problem, ls, None, excluded, unexplained, edge, bounds=bounds)
     if mcmc and ls.converged:
         cal = cal.with_posterior(walkers=walkers, steps=steps, seed=seed, backend=backend, resume=resume,
                                  progress=progress)
@@ -227,9 +265,6 @@ def _inside(p, value: float) -> float:
     return value
 
 
-def _line(r: SweepRows, k: int) -> int:
-    """The file line of row ``k`` of ``r``."""
-    return int(r.lines[k]) if r.lines is not None else k + 1
 
 
 def _used(r: SweepRows) -> np.ndarray:
@@ -259,7 +294,7 @@ def at_limit(problem: Problem, theta, rows: list[SweepRows], hard: list[tuple] |
     for i, rows_of, obs in _hard_at(problem, theta) if hard is None else hard:
         headroom = np.asarray(obs.headroom)[rows_of]
         for k in np.flatnonzero(_used(rows[i]) & (headroom > 0.0) & (headroom < 2 * VALID_MARGIN)):
-            out.append({"file": rows[i].path, "line": _line(rows[i], k), "headroom": float(headroom[k])})
+            out.append({"file": rows[i].path, "line": rows[i].line(k), "headroom": float(headroom[k])})
     return out
 
 
@@ -347,6 +382,8 @@ def _bands(cal: Calibration):
                                                  replace=False)]
         per_draw = jax.device_get(batched_curves(problem, jnp.asarray(draws)))
         limits = [(np.percentile(c, 16, axis=0), np.percentile(c, 84, axis=0)) for c in per_draw]
+    elif problem.bounds_only:  # a specification states no uncertainty: no band
+        limits = [(None, None)] * len(problem.groups)
     elif np.all(np.isfinite(ls.unconstrained_covariance)):
         limits = []
         for centre, jac in zip(lin.curves, lin.curves_jacobian, strict=True):  # jac: (files, 2, n, params) in u
@@ -362,6 +399,9 @@ def _bands(cal: Calibration):
                       None if lo is None else lo[k], None if hi is None else hi[k])
     return out
 
+
+#: The fit figure's panel of each bounded quantity (the depth error's bound: on the mean reading's panel).
+_BOUND_PANEL = {"amplitude_mean_lsb": "amplitude_mean_lsb", "depth_std_m": "depth_std_m", "depth_error_m": "depth_mean_m"}
 
 #: A comparison's dense curve per fitted observable (the depth mean's panel shows the depth error).
 _COMPARE_CURVE = {"amplitude_mean_lsb": "amplitude_mean_lsb", "depth_std_m": "depth_std_m",
@@ -401,8 +441,9 @@ def _figures(cal: Calibration, out: Path, comparisons=()) -> list[Path]:
             scale = _SCALE[name]
             xd = dense_x * xs
             if not np.any(np.isfinite(rows.data[name][0])):
-                ax.text(0.5, 0.9, f"{name}: not in the file (model only)", transform=ax.transAxes, ha="center",
-                        color="grey")
+                ax.text(0.5, 0.9, f"{name}: not measured in the file" + (" (its bounds: dashed)" if any(
+                    _BOUND_PANEL[b.quantity] == name for b in rows.bounds) else " (model only)"),
+                    transform=ax.transAxes, ha="center", color="grey")
             for n_kind, (kind, ks) in enumerate(sorted(kinds.items())):  # rows left out, greyed, by kind
                 shown = [j for j in ks if np.isfinite(data[j])]
                 if shown:
@@ -414,6 +455,14 @@ def _figures(cal: Calibration, out: Path, comparisons=()) -> list[Path]:
                 ax.plot(initial.dense_x * xs, initial.dense[_COMPARE_CURVE[name]] * scale, color="0.5", ls="--", lw=0.9,
                         label="initial model")
             ax.plot(xd, centre[k] * scale, color="C1", label="fitted model")
+            for b in rows.bounds:  # a datasheet's bound where it holds, in the panel of its quantity
+                if _BOUND_PANEL[b.quantity] != name:
+                    continue
+                ok = np.isfinite(b.values)
+                order = np.argsort(x_all[ok])
+                for sign in (1.0, -1.0) if b.quantity == "depth_error_m" else (1.0,):  # the error's magnitude
+                    ax.plot(x_all[ok][order], sign * b.values[ok][order] * scale, "C3--", lw=1.0, marker="_",
+                            label=f"bound ({BOUND_RELATIONS[b.relation]})")
             ax.errorbar(x_all[idx], values * scale, yerr=sigma * scale, fmt="o", ms=3, color="C0", label="data")
             ax.set_xlabel(label)
             ax.set_ylabel(_LABEL[name])
@@ -482,6 +531,51 @@ def _figures(cal: Calibration, out: Path, comparisons=()) -> list[Path]:
     return written
 
 
+def bounds_section(cal: Calibration) -> list:
+    """The report's "Published bounds" section: how the bounds entered, which hold at the solution,
+    which are active, each free parameter's interval and whether the bounds pin it, and the physical
+    limits the estimate breaks."""
+    b, problem, ls = cal.bounds, cal.problem, cal.least_squares
+    how = ("Each bound row is a one-sided constraint: a residual (ln(model / bound) + "
+           f"{BOUND_MARGIN:g}) / {BOUND_SCALE:g} for an upper bound (ln(bound / model) + {BOUND_MARGIN:g} for a lower "
+           "one) where positive, 0 elsewhere: near the bound (model - bound) / (1e-4 bound), holding the model 0.1 % "
+           "inside it. The quantities are judged as tofjax compare judges them (the depth error is the camera's reading "
+           "minus the true distance); a bound row is also held where the hard model measures it.")
+    if problem.bounds_only:
+        how += (" No file holds a measured value, so the fit is the smallest change from the configuration that "
+                "meets every bound: a residual per free parameter, ln(value / initial) / ln 2 for a positive parameter "
+                "(a factor 2 either way costs as much as one standard deviation), (value - initial) / "
+                f"{ANCHOR_LINEAR_WIDTH:g} of its allowed interval otherwise, and any --prior's (value - mean) / sigma. "
+                "A specification states no uncertainty: the sigmas below are the prior's width and the bounds' "
+                "stiffness, not a measurement; the intervals say what the bounds allow.")
+    else:
+        how += " The measured rows are fitted as usual; the bounds constrain the fit."
+    out: list = [how, headline(b)]
+    rows = []
+    for p, initial in zip(b.intervals, ls.initial, strict=True):
+        why = {side: (f"{Path(p[f'{side}_breaks']['file']).name} line {p[f'{side}_breaks']['line']} "
+                      f"({p[f'{side}_breaks']['column']})") if p[f"{side}_breaks"] else
+               {"range": "its own bound", "scan": "none within the scan", None: ""}[p[f"{side}_end"]]
+               for side in ("lower", "upper")}
+        span = ("", "") if p["lower"] is None else (f"{p['lower']:.4g}", f"{p['upper']:.4g}")
+        rows.append((p["name"], p["unit"], f"{initial:.6g}", f"{p['value']:.6g}", p["status"], *span, why["lower"],
+                     why["upper"]))
+    out += [f"Per free parameter, the interval over which every bound that holds at the solution still holds, the "
+            "others at the solution (a scan of the hard model); pinned where a bound breaks within "
+            f"{PINNED_WIDTH:g} change widths of the solution on that side (a factor {2 ** PINNED_WIDTH:.3g} of a "
+            "positive parameter): an active bound holds it there, or the interval is that narrow.",
+            Table(("parameter", "unit", "initial", "estimate", "held by the bounds", "from", "to", "broken below by",
+                   "broken above by"), tuple(rows))]
+    lines = row_lines(b)
+    if lines:
+        out += ["Bound rows active or not met at the solution (file, line, column):", lines]
+    if b.physical:
+        out += ["Physical limits the estimate breaks:", [f["message"] for f in b.physical]]
+    if cal.refused:
+        out += ["calibrated.toml is not written: the configuration refuses the estimates: " + cal.refused]
+    return out
+
+
 def _report(cal: Calibration, figures: list[Path], comparisons=()) -> Summary:
     """The calibration report (:class:`tofjax.report.Summary`: ``report.md`` and ``report.html``)."""
     ls, post = cal.least_squares, cal.posterior
@@ -497,7 +591,7 @@ def _report(cal: Calibration, figures: list[Path], comparisons=()) -> Summary:
                     f"{used}; left out: {r.excluded['saturated']} with saturated frames, {r.excluded['low_snr']} "
                     f"below the SNR limit, {r.excluded.get('at_solution', 0)} the fitted model cannot measure")
         for k, why in sorted(r.reasons.items()):
-            data.append(f"{Path(r.path).name} line {_line(r, k)}: {why}")
+            data.append(f"{Path(r.path).name} line {r.line(k)}: {why}")
     report.sections.append(Section("Data", [data]))
     if cal.problem.validity:  # every measured row constrains the fit (calibrate's docstring)
         limits = ["Every row the fit uses is held where the model measures it (a camera that delivered a row was "
@@ -515,9 +609,13 @@ def _report(cal: Calibration, figures: list[Path], comparisons=()) -> Summary:
         elif not cal.unexplained:
             limits.append("No row is at its edge: the constraint does not act at the solution.")
         report.sections.append(Section("Validity of the measured rows", [limits]))
+    if cal.bounds is not None:
+        report.sections.append(Section("Published bounds", bounds_section(cal)))
+    objective = (f"the sum of squares (the change residuals' and any broken bound's; no measured row) = {ls.chi2:.4g}"
+                 if cal.problem.bounds_only else f"chi^2 = {ls.chi2:.2f} for {ls.dof} degrees of freedom (chi^2/dof = "
+                 f"{ls.chi2_per_dof:.3f})")
     fit = [f"{'converged' if ls.converged else 'NOT CONVERGED (the estimate below is the last iterate)'} after "
-           f"{ls.steps} steps; chi^2 = {ls.chi2:.2f} for {ls.dof} degrees of freedom (chi^2/dof = "
-           f"{ls.chi2_per_dof:.3f}); condition number {ls.condition_number:.3g}",
+           f"{ls.steps} steps; {objective}; condition number {ls.condition_number:.3g}",
            Table(("parameter", "unit", "initial", "estimate", "sigma"), tuple(
                (n, u, f"{i:.6g}", f"{e:.6g}", f"{sg:.3g}")
                for n, u, i, e, sg in zip(ls.names, ls.units, ls.initial, ls.estimate, ls.sigma, strict=True)))]
@@ -533,10 +631,11 @@ def _report(cal: Calibration, figures: list[Path], comparisons=()) -> Summary:
         fit += ["What the data cannot separate:", list(ls.degeneracies)]
     short = [n.split(".")[1] for n in ls.names]
     fit += ["Correlation matrix:", Table(("", *short), tuple(
-        (name, *(f"{x:+.3f}" for x in row)) for name, row in zip(short, ls.correlation, strict=True))),
-            "Residuals (whitened):",
-            [f"{Path(r['file']).name} {r['observable']}: {r['rows']} rows, rms {r['rms']:.2f}, mean {r['mean']:+.2f}, "
-             f"max |r| {r['max_abs']:.2f}" for r in ls.residual_summary]]
+        (name, *(f"{x:+.3f}" for x in row)) for name, row in zip(short, ls.correlation, strict=True)))]
+    if ls.residual_summary:  # none of bounds only
+        fit += ["Residuals (whitened):",
+                [f"{Path(r['file']).name} {r['observable']}: {r['rows']} rows, rms {r['rms']:.2f}, mean {r['mean']:+.2f}, "
+                 f"max |r| {r['max_abs']:.2f}" for r in ls.residual_summary]]
     report.sections.append(Section("Least squares (Levenberg-Marquardt)", fit))
     if post is not None:
         report.sections.append(Section("Posterior (emcee)", [
@@ -546,14 +645,15 @@ def _report(cal: Calibration, figures: list[Path], comparisons=()) -> Summary:
                 (n, f"{m:.6g}", f"{lo:.6g}", f"{hi:.6g}", f"{t:.1f}")
                 for n, m, lo, hi, t in zip(post.names, post.median, post.p16, post.p84, post.autocorr_time, strict=True))),
             *([[f"warning: {w}" for w in post.warnings]] if post.warnings else [])]))
+    rows = []
     if comparisons:
-        rows = []
         for before, after in comparisons:
             for name in ("depth_std_m", "amplitude_mean_lsb"):
-                a, b = before.summary(name), after.summary(name)
+                a, b = before.summary(name), after.summary(name) if after is not None else {"rows": 0}
                 if a["rows"] or b["rows"]:
                     cell = lambda x: f"{x['median_ratio']:.3f} ({x['within']}/{x['rows']})" if x["rows"] else "-"  # noqa: E731
                     rows.append((Path(before.path).name, name, cell(a), cell(b)))
+    if rows:  # none of bounds only (the bounds' own section above)
         report.sections.append(Section("Measured vs model, before and after", [
             "Median model/measured ratio and rows within 30 % (unflagged rows; the tables per row in "
             "compare_initial.* and compare_calibrated.*; the figures show the initial model dashed):",

@@ -50,7 +50,7 @@ from tofjax.schema import OPERATING_POINT_COLUMNS, SWEEP_AXES
 from tofjax.sweepfile import BOUND_RELATIONS, bound_column
 
 from ._data import Measurement, read_measurement
-from ._problem import DENSE_POINTS, dense_sweep, hard_observables, nearest_period, under_common_lamp
+from ._problem import DENSE_POINTS, dense_sweep, hard_observables, nearest_period, reading_period, under_common_lamp
 
 #: Ratios within this factor of 1 count as agreeing in the summaries (30 %).
 AGREEMENT = 0.3
@@ -98,18 +98,26 @@ def check_bounds(data, model: dict[str, np.ndarray], distance_m: np.ndarray, rea
     docstring): the depth error is ``reading_m`` (the camera's expected reading) minus the true
     ``distance_m``, and a row where ``guess`` (its phase noise makes the reading a guess) meets no
     depth bound."""
+    return judge_bounds([(column, data.metadata[f"bound.{column}"], data.columns[column]) for column in data.bounds],
+                        model, distance_m, reading_m, guess)
+
+
+def judge_bounds(bounds, model: dict[str, np.ndarray], distance_m: np.ndarray, reading_m: np.ndarray,
+                 guess: np.ndarray) -> list[BoundCheck]:
+    """:func:`check_bounds` of ``bounds``, ``(column, statement, values per row)`` each (a file's, or a
+    calibration's :class:`fitting._data.Bound` columns)."""
     nan_if_guess = lambda x: np.where(guess, np.nan, x)  # noqa: E731
     values = {"depth_std_m": nan_if_guess(model["depth_std_m"]), "amplitude_mean_lsb": model["amplitude_mean_lsb"],
               "depth_error_m": nan_if_guess(np.abs(reading_m - distance_m))}
     out = []
-    for column in data.bounds:
+    for column, statement, bound in bounds:
         quantity, relation = bound_column(column)
-        bound, value = np.asarray(data.columns[column], dtype=float), np.asarray(values[quantity], dtype=float)
+        bound, value = np.asarray(bound, dtype=float), np.asarray(values[quantity], dtype=float)
         upper = relation in ("le", "lt")
         margin = bound - value if upper else value - bound
         with np.errstate(invalid="ignore"):
             met = np.isfinite(margin) & ((margin >= 0) if relation in ("le", "ge") else (margin > 0))
-        out.append(BoundCheck(column, quantity, relation, data.metadata[f"bound.{column}"], bound, value, met, margin))
+        out.append(BoundCheck(column, quantity, relation, statement, bound, value, met, margin))
     return out
 
 
@@ -181,9 +189,7 @@ def compare_measurement(m: Measurement) -> FileComparison:
         value = np.asarray(getattr(obs, name))
         return value[:n] if part == "rows" else value[n:]
 
-    c = float(m.config.params.constants.speed_of_light_m_per_s)
-    period = (float(tj.stats.extended_range_m(m.frequencies_hz, c)) if len(m.frequencies_hz) > 1
-              else c / (2.0 * m.frequencies_hz[0]))
+    period = reading_period(m.config.params, m.frequencies_hz)
     truth = np.asarray(m.sweep.distance_m)
     model = {name: get(name, "rows") for name in _QUANTITIES}
     model["depth_mean_m"] = np.asarray(nearest_period(model["depth_mean_m"], truth, period))
@@ -487,8 +493,8 @@ def write_comparison(comparisons: list[FileComparison], out: str | Path, *, titl
         writer.writerows({k: _spreadsheet_safe(v) if k in _TEXT_COLUMNS else v for k, v in r.items()} for r in records)
     written.append(csv_path)
     checks = bound_rows(comparisons)
-    if checks:
-        bounds_path = out / "bounds.csv"
+    if checks:  # beside a calibration's two comparisons, each its own (compare_initial_bounds.csv)
+        bounds_path = out / ("bounds.csv" if stem == "comparison" else f"{stem}_bounds.csv")
         with atomic_path(bounds_path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
             writer = csv.DictWriter(f, fieldnames=list(_BOUND_CSV_COLUMNS))
             writer.writeheader()

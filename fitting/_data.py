@@ -32,8 +32,12 @@ Rows that do not enter the fit, and why (counted in the diagnostics, and each ro
   (docs/model.md, "Analytic path");
 - an empty cell: not measured; that residual is absent, the row's other one stays.
 
-Bounds (format 4, a datasheet's promise) are not fitted: ``tofjax compare`` checks them. A file
-of bounds only is refused by the calibration in one line.
+Bounds (format 4, a datasheet's promise: ``depth_std_m_lt``, ...) are kept per file as
+:class:`Bound` columns (:attr:`SweepRows.bounds`): the calibration holds the model on their met side
+(:mod:`fitting._problem`). A file may hold bounds only (a ``source: specification`` file): its rows
+need no ``n_frames`` and no noise model for weights, as nothing of theirs is weighted. A bound on a
+quantity the model cannot predict for the file's camera is refused in one line (a ``depth_std_m``
+bound with ``pixel.noise = false``: the model has no depth noise to judge).
 """
 
 from __future__ import annotations
@@ -52,6 +56,30 @@ from ._parameters import CalibrationInputError
 #: What a file's rows say and the fit explains: the amplitude, the depth noise and the mean distance
 #: reading (the camera's systematic error: offset and wiggling, against the row's true distance).
 OBSERVABLES = ("amplitude_mean_lsb", "depth_std_m", "depth_mean_m")
+
+
+#: The quantities a bound may state that the fit models (:data:`tofjax.sweepfile.BOUND_QUANTITIES`):
+#: the depth noise, the depth error's magnitude (the camera's reading minus the true distance) and the
+#: amplitude, as ``tofjax compare`` judges them (:func:`fitting.check_bounds`).
+BOUND_MODELS = ("depth_std_m", "depth_error_m", "amplitude_mean_lsb")
+
+
+@dataclasses.dataclass
+class Bound:
+    """One bound column of a file: ``column`` (``depth_std_m_lt``), its ``quantity`` and ``relation``
+    (``le``, ``lt``, ``ge``, ``gt``), the ``statement`` its ``# bound.`` line quotes, and ``values``
+    per row (NaN: no bound at that row)."""
+
+    column: str
+    quantity: str
+    relation: str
+    statement: str
+    values: np.ndarray
+
+    @property
+    def upper(self) -> bool:
+        """Whether it bounds the quantity from above (``le``, ``lt``)."""
+        return self.relation in ("le", "lt")
 
 
 @dataclasses.dataclass
@@ -78,6 +106,20 @@ class SweepRows:
     lines: np.ndarray | None = None
     #: The file's metadata (``true.<key>`` values among them).
     metadata: dict[str, str] = dataclasses.field(default_factory=dict)
+    #: The file's bound columns (format 4; empty for a file of measured values only).
+    bounds: list[Bound] = dataclasses.field(default_factory=list)
+
+    @property
+    def bounded(self) -> np.ndarray:
+        """Which rows state a bound (any column)."""
+        out = np.zeros(self.n_rows, bool)
+        for b in self.bounds:
+            out |= np.isfinite(b.values)
+        return out
+
+    def line(self, k: int) -> int:
+        """The file line of row ``k``."""
+        return int(self.lines[k]) if self.lines is not None else k + 1
 
     def used(self, name: str) -> np.ndarray:
         """Indices of the rows of observable ``name`` that enter the fit."""
@@ -198,11 +240,12 @@ def load_rows(path: str | Path, config: tj.Config, *, relative_error: float | No
     """Read one sweep file and prepare its residual rows (see the module docstring)."""
     m = read_measurement(path, config)
     path, data, cols, file_config = m.path, m.data, m.columns, m.config
-    if data.bounds and not any(name in data.fields for name in OBSERVABLES):
-        raise CalibrationInputError(f"{path}: holds bounds only ({', '.join(data.bounds)}: a published specification, "
-                                    "not a measurement); tofjax compare checks them; calibrate fits measured values")
+    bounds = _bounds(path, data, file_config)
+    measured_rows = np.zeros(data.n_rows, bool)
+    for name in OBSERVABLES:
+        measured_rows |= ~np.isnan(cols[name])
     frames = cols["n_frames"]
-    few = ~(frames >= 2)  # an empty cell (NaN): not stated
+    few = ~(frames >= 2) & (measured_rows | (not bounds))  # an empty cell (NaN): not stated; a bound needs none
     if relative_error is None and np.any(few):
         i = int(np.argmax(few))
         stated = "not stated (empty)" if np.isnan(frames[i]) else f"{frames[i]:g}"
@@ -211,7 +254,7 @@ def load_rows(path: str | Path, config: tj.Config, *, relative_error: float | No
             "(an analytic prediction has 0); give a relative error (--relative-error)")
     if relative_error is not None and not (0 < relative_error < 10):
         raise CalibrationInputError(f"relative error = {relative_error!r} is out of range: allowed 0 < value < 10")
-    if relative_error is None and not file_config.params.pixel.noise:
+    if relative_error is None and not file_config.params.pixel.noise and (np.any(measured_rows) or not bounds):
         raise CalibrationInputError(f"{path}: the configuration has pixel.noise = false, so the model predicts no "
                                     "noise and cannot weight the rows; enable noise or give --relative-error")
 
@@ -242,8 +285,34 @@ def load_rows(path: str | Path, config: tj.Config, *, relative_error: float | No
                 "a measured depth noise cannot be exactly zero (a camera quantising depth coarser than its noise, or "
                 "an export error); leave the cell empty if it was not measured")
         out[name] = (values, measured)
-    if sum(int(np.sum(v[1])) for v in out.values()) == 0:
+    if sum(int(np.sum(v[1])) for v in out.values()) == 0 and not bounds:
         raise CalibrationInputError(f"{path}: no row enters the fit ({excluded['saturated']} saturated, "
                                     f"{excluded['low_snr']} below the amplitude SNR {min_snr:g}, the rest not measured)")
     return SweepRows(path, data.sweep, file_config, m.sweep, out, frames, excluded, data.n_rows, m.frequencies_hz,
-                     m.fusion, m.processing, reasons, data.lines, dict(data.metadata))
+                     m.fusion, m.processing, reasons, data.lines, dict(data.metadata), bounds)
+
+
+def _bounds(path: str, data: sf.SweepData, config: tj.Config) -> list[Bound]:
+    """The file's bound columns as :class:`Bound` (module docstring), each on a quantity the model
+    predicts for the file's camera; anything else is refused in one line."""
+    out = []
+    for column in data.bounds:
+        quantity, relation = sf.bound_column(column)
+        if quantity not in BOUND_MODELS:
+            raise CalibrationInputError(f"{path}: column {column} (field {data.fields[column]}) bounds {quantity}, which "
+                                        f"the calibration does not model (it models {', '.join(BOUND_MODELS)}); "
+                                        "tofjax compare checks it")
+        if quantity == "depth_std_m" and not config.params.pixel.noise:
+            raise CalibrationInputError(f"{path}: column {column} (field {data.fields[column]}) bounds the depth noise, "
+                                        "but the configuration has pixel.noise = false: the model predicts no noise, "
+                                        "so the bound cannot be judged; enable noise")
+        values = np.asarray(data.columns[column], dtype=float)
+        zero = np.flatnonzero((values == 0) & (relation in ("le", "lt")))
+        if zero.size:
+            raise CalibrationInputError(f"{path}:{data.lines[zero[0]]}: column {column} (field {data.fields[column]}) "
+                                        f"= 0: an upper bound of 0 leaves no room to hold the model inside (the "
+                                        "calibration holds it 0.1 % of the bound inside); leave the cell empty for no "
+                                        "bound at that row")
+        out.append(Bound(column, quantity, relation, data.metadata.get(f"bound.{column}", ""),
+                         np.where(values > 0, values, np.nan)))  # a lower bound of 0 always holds: none
+    return out

@@ -182,12 +182,18 @@ def fit_least_squares(problem: Problem, rows, *, max_steps: int = 256, rtol: flo
         raise ConvergenceError(f"least squares did not converge after {steps} steps: {message}")
     lin = jax.device_get(linearize(problem, u))  # the callback's program (a host array in)
     theta, r, dtheta = lin.theta, lin.residuals, lin.dtheta_du
+    # A parameter pushed onto its bound saturates its transform (d theta / d u = 0 in float64): its
+    # column of d residuals / d theta is unknown there. It gets no sigma, and bound_flags names it.
+    saturated = np.asarray(dtheta) == 0.0
     with np.errstate(invalid="ignore", divide="ignore"):
-        jac_theta = lin.jacobian / dtheta
+        jac_theta = np.where(saturated, 0.0, lin.jacobian / np.where(saturated, 1.0, dtheta))
     if not np.all(np.isfinite(jac_theta)):
         raise ConvergenceError("the Jacobian at the solution is not finite; the fit cannot be trusted")
     names = problem.names
     cov, condition, messages = _covariance(jac_theta, names)
+    for k in np.flatnonzero(saturated):
+        messages = [m for m in messages if not m.startswith(f"{names[k]} does not affect any residual")]
+        messages.append(f"{names[k]} is pushed onto its bound, where its transform saturates: no sigma")
     corr = _correlation(cov)
     for i, j in itertools.combinations(range(n_params), 2):
         if np.isfinite(corr[i, j]) and abs(corr[i, j]) > CORRELATION_LIMIT:
@@ -195,7 +201,9 @@ def fit_least_squares(problem: Problem, rows, *, max_steps: int = 256, rtol: flo
                             f"{_explain(names[i], names[j])}; {_product_note(theta, cov, i, j)}")
     with np.errstate(invalid="ignore", divide="ignore"):
         cov_u = cov / np.outer(dtheta, dtheta)
-    flags = bound_flags(problem, np.asarray(theta), np.sqrt(np.diag(cov)))
+    # Of bounds only, the sigmas are the change residuals' widths, not a measurement: no flag by them.
+    flags = bound_flags(problem, np.asarray(theta), np.sqrt(np.diag(cov)) if not problem.bounds_only
+                        else np.full(n_params, np.inf))
     return LeastSquaresResult(
         names=names, units=problem.units, initial=np.asarray(problem.initial), estimate=np.asarray(theta),
         sigma=np.sqrt(np.diag(cov)), covariance=cov, correlation=corr, unconstrained=np.asarray(u),

@@ -13,6 +13,25 @@ stages) falls below the margin, 0 elsewhere: a penalty that holds the solution w
 model measures every row, and that is 0 (with a 0 Jacobian) wherever it holds, so it changes
 neither chi^2 nor the covariance of a fit that stays inside.
 
+A file's bounds (format 4, a datasheet's promise: :class:`fitting._data.Bound`) are one-sided
+constraints of the same kind: per bound row, a residual (ln(model / bound) + :data:`BOUND_MARGIN`) /
+:data:`BOUND_SCALE` for an upper bound (ln(bound / model) + the margin for a lower one) where it is
+positive, 0 elsewhere (with a 0 Jacobian). Near the bound that is (model - bound) / (1e-4 bound): a
+bound broken by 0.01 % costs one standard deviation, and the solution is held 0.1 % inside it (so a
+strict bound, ``lt``, is met too, and the hard model judges the same as the smooth one). The
+logarithm keeps a bound broken 50-fold well-conditioned: the residual is linear in the log of a
+power law's parameter (the depth noise goes as a power of the illumination's power), where a
+difference would be quadratic in its excess. The quantity is judged as ``tofjax compare`` judges
+it (:func:`fitting.check_bounds`): the depth noise, the amplitude, and the depth error as the
+camera's reading (wrapped by its own frequencies) minus the true distance. A bound row also carries
+the validity residual above: the specification promises a depth there. With no measured row at all
+(bounds only) the problem minimises the change from the starting configuration: a residual per
+free parameter, (t(theta) - t(start)) / w with t = ln and w = ln 2 for a positive parameter (a
+factor 2 either way costs one standard deviation, alike at any value), t = theta and w a tenth of
+its allowed interval otherwise (:data:`ANCHOR_LOG_WIDTH`, :data:`ANCHOR_LINEAR_WIDTH`), and any ``--prior``'s (theta - mean) /
+sigma; with measured rows those residuals weigh 0 (:attr:`Problem.anchor_weight`, an array: the same
+program) and the bounds constrain the ordinary fit.
+
 Compiled once per structure. Files taken with the same camera (equal parameters; they differ only in
 their operating points, which are per-row inputs, and in their background lamp) form a group whose
 rows are concatenated into one sweep, so one :func:`tofjax.predict` evaluates the whole group. A file
@@ -52,6 +71,23 @@ DENSE_POINTS = 160
 #: above, and the headroom shortfall that costs one standard deviation (module docstring).
 VALID_MARGIN = 1e-3
 VALID_SCALE = 1e-4
+#: How far inside a bound the bound residual holds the model (a fraction of the bound: ln(model /
+#: bound) below -BOUND_MARGIN for an upper one), and the excess over that which costs one standard
+#: deviation (module docstring).
+BOUND_MARGIN = 1e-3
+BOUND_SCALE = 1e-4
+#: A bound is active at a solution (met with equality) where the hard model lies within this fraction
+#: of it: twice the hold, as the validity's edge.
+BOUND_ACTIVE = 2 * BOUND_MARGIN
+#: The smooth model's margin where it has no positive value for a bound that needs one (a lower bound
+#: on an amplitude of 0): ln of a factor e^50, finite so that the residuals stay numbers.
+NO_VALUE = 50.0
+#: The width of the change residual of a positive parameter (bounds only): a factor 2 either way
+#: is one standard deviation.
+ANCHOR_LOG_WIDTH = float(np.log(2.0))
+#: Of a parameter that may be zero or negative: this fraction of its allowed interval (or 1 in its
+#: unit where the interval is open).
+ANCHOR_LINEAR_WIDTH = 0.1
 
 
 def nearest_period(depth, reference, period):
@@ -164,6 +200,11 @@ class FileGroup(eqx.Module):
     frames: Array
     lamp_scale: Array  # per point of ``sweep``: k_L / k_0 of its file's lamp (1 under the group's lamp)
     processing: tuple = ()
+    #: The bounds its files state, one slot per (quantity, upper) (static), each the tightest of its
+    #: files' columns per data row (``bound_values``; ``bound_masks``: where a row states one).
+    bound_slots: tuple[tuple[str, bool], ...] = eqx.field(static=True, default=())
+    bound_values: tuple[Array, ...] = ()
+    bound_masks: tuple[Array, ...] = ()
 
     def model_sweep(self, dense: bool = True) -> tj.Sweep:
         """The operating points the model runs at: the files' own, each file's illuminance in lux
@@ -233,7 +274,26 @@ def under_common_lamp(params: tj.Params) -> tuple[tj.Params, float]:
     return (params, 1.0) if scale is None else (common, scale)
 
 
-def _groups(rows: list[SweepRows], merge_lamps: bool = True) -> tuple[FileGroup, ...]:
+#: Free parameters that set the reading's period (the unambiguity range): with one of them fitted, an
+#: accuracy bound beyond the range stays in the fit (:func:`wrapped_rows`).
+PERIOD_PARAMETERS = ("illumination_waveform.modulation_frequency_hz",)
+
+
+def reading_period(params: tj.Params, frequencies_hz) -> float:
+    """The period a camera of ``params`` measuring at ``frequencies_hz`` reads depth in, m: its
+    unambiguity range c / (2 f), or the extended range of its frequencies."""
+    c = float(params.constants.speed_of_light_m_per_s)
+    freqs = tuple(frequencies_hz) or (float(params.illumination_waveform.modulation_frequency_hz),)
+    return float(tj.stats.extended_range_m(freqs, c)) if len(freqs) > 1 else c / (2.0 * freqs[0])
+
+
+def wrapped_rows(r: SweepRows) -> np.ndarray:
+    """Rows of ``r`` at or beyond its camera's reading period: its reading wraps there and is short by
+    the period, so no parameter but the frequency meets an accuracy bound (``depth_error_m``) there."""
+    return np.asarray(r.sweep.distance_m) >= reading_period(r.params, r.frequencies_hz)
+
+
+def _groups(rows: list[SweepRows], merge_lamps: bool = True, keep_wrapped: bool = False) -> tuple[FileGroup, ...]:
     members: list[list[tuple[int, float]]] = []  # per group: (file, lamp scale)
     for i, r in enumerate(rows):
         for group in members:
@@ -247,6 +307,7 @@ def _groups(rows: list[SweepRows], merge_lamps: bool = True) -> tuple[FileGroup,
         else:
             members.append([(i, 1.0)])
     groups = []
+    slots_of = lambda i: {(b.quantity, b.upper) for b in rows[i].bounds}  # noqa: E731
     for joined in members:
         group = [i for i, _ in joined]
         cat = lambda xs: jnp.asarray(np.concatenate([np.asarray(x) for x in xs]))  # noqa: E731
@@ -264,9 +325,36 @@ def _groups(rows: list[SweepRows], merge_lamps: bool = True) -> tuple[FileGroup,
             sweep=tj.Sweep.points("distance", **columns),
             values=tuple(cat([np.where(rows[i].data[o][1], rows[i].data[o][0], 0.0) for i in group]) for o in OBSERVABLES),
             masks=tuple(cat([rows[i].data[o][1] for i in group]) for o in OBSERVABLES),
-            frames=cat([np.asarray(rows[i].frames, dtype=float) for i in group]),
-            lamp_scale=cat(scales), processing=rows[group[0]].processing))
+            frames=cat([np.nan_to_num(np.asarray(rows[i].frames, dtype=float)) for i in group]),
+            lamp_scale=cat(scales), processing=rows[group[0]].processing,
+            **_bound_arrays(sorted(set().union(*(slots_of(i) for i in group))), [rows[i] for i in group],
+                            keep_wrapped)))
     return tuple(groups)
+
+
+def tightest(r: SweepRows, quantity: str, upper: bool) -> tuple[np.ndarray, list[str | None]]:
+    """Per row of ``r``, the tightest of its bounds on ``quantity`` from the side ``upper`` (NaN
+    where none) and the column that states it (``None`` where none)."""
+    values, columns = np.full(r.n_rows, np.nan), np.full(r.n_rows, None, dtype=object)
+    for b in r.bounds:
+        if (b.quantity, b.upper) == (quantity, upper):
+            with np.errstate(invalid="ignore"):
+                tighter = np.isfinite(b.values) & (np.isnan(values) | ((b.values < values) if upper else (b.values > values)))
+            values[tighter], columns[tighter] = b.values[tighter], b.column
+    return values, list(columns)
+
+
+def _bound_arrays(slots: list[tuple[str, bool]], files: list[SweepRows], keep_wrapped: bool = False) -> dict:
+    """:class:`FileGroup`'s bound fields of ``files`` (its members, in order); an accuracy bound where
+    the reading wraps (:func:`wrapped_rows`) is left out unless ``keep_wrapped``: it would only add a
+    constant to the sum of squares, whose rounding then hides the steps of the bounds that can be met."""
+    values, masks = [], []
+    for quantity, upper in slots:
+        per_row = np.concatenate([np.where(wrapped_rows(r) & (quantity == "depth_error_m") & (not keep_wrapped), np.nan,
+                                           tightest(r, quantity, upper)[0]) for r in files])
+        values.append(jnp.asarray(np.where(np.isfinite(per_row), per_row, 1.0)))
+        masks.append(jnp.asarray(np.isfinite(per_row)))
+    return {"bound_slots": tuple(slots), "bound_values": tuple(values), "bound_masks": tuple(masks)}
 
 
 class Problem(eqx.Module):
@@ -292,6 +380,14 @@ class Problem(eqx.Module):
     #: Hold every used row where the hard model measures it (module docstring); ``False``: the data
     #: residuals only (``calibrate(..., leave_out_invalid=True)``).
     validity: bool = eqx.field(static=True, default=True)
+    #: Per parameter, whether its change residual is taken in its logarithm (a positive parameter;
+    #: module docstring); empty where no file states a bound (no change residuals).
+    anchor_log: tuple[bool, ...] = eqx.field(static=True, default=())
+    #: The change residuals' start (transformed) and width per parameter, and their weight: 1 with no
+    #: measured row (bounds only), 0 otherwise (an array: both share one program).
+    anchor_start: Float[Array, " params"] | None = None
+    anchor_width: Float[Array, " params"] | None = None
+    anchor_weight: Float[Array, ""] | None = None
 
     @property
     def n_params(self) -> int:
@@ -302,15 +398,33 @@ class Problem(eqx.Module):
         return sum(len(g.files) for g in self.groups)
 
     @property
+    def bounded(self) -> bool:
+        """Whether a file states a bound (the problem has bound and change residuals)."""
+        return bool(self.anchor_log)
+
+    @property
+    def bounds_only(self) -> bool:
+        """Whether the problem has bounds and no measured row: it minimises the change from the start."""
+        return self.bounded and float(self.anchor_weight) > 0.0
+
+    @property
     def n_slots(self) -> int:
         """The residual vector's length: a slot per row and observable, then (with :attr:`validity`)
-        a validity slot per row."""
+        a validity slot per row, a slot per bound slot and row, and (with bounds) a change and a
+        prior slot per parameter."""
         data = sum(int(np.size(m)) for g in self.groups for m in g.masks)
-        return data + (sum(g.n_data for g in self.groups) if self.validity else 0)
+        bounds = sum(len(g.bound_slots) * g.n_data for g in self.groups)
+        return (data + (sum(g.n_data for g in self.groups) if self.validity else 0) + bounds
+                + (2 * self.n_params if self.bounded else 0))
 
     @property
     def n_residuals(self) -> int:
-        return sum(int(np.sum(np.asarray(m))) for g in self.groups for m in g.masks)
+        """The residuals that count as data (chi^2's degrees of freedom): the measured values, and with
+        bounds only the change residuals and the priors'."""
+        measured = sum(int(np.sum(np.asarray(m))) for g in self.groups for m in g.masks)
+        if not self.bounds_only:
+            return measured
+        return measured + self.n_params + int(np.sum(np.asarray(self.prior_sigma) > 0))
 
     # --- the bound transforms: theta = lo + (hi - lo) sigmoid(u), lo + exp(u), or u (FreeParameter)
     def unconstrained(self, theta: Float[Array, " params"]) -> Float[Array, " params"]:
@@ -383,10 +497,53 @@ class Problem(eqx.Module):
         if not self.validity:
             return jnp.zeros((0,))
         used = group.masks[0]
-        for mask in group.masks[1:]:
+        for mask in group.masks[1:] + group.bound_masks:  # a bound row too: its camera promises a depth there
             used = used | mask
         short = VALID_MARGIN - r.headroom[: group.n_data]
         return jnp.where(used & (short > 0.0), short / VALID_SCALE, 0.0)
+
+    def _hinges(self, r: Observables, group: FileGroup) -> Array:
+        """The bound residuals of a group's data rows, slot by slot (module docstring): 0 where a row
+        states no bound or meets it by more than :data:`BOUND_MARGIN`."""
+        if not group.bound_slots:
+            return jnp.zeros((0,))
+        excess = [jnp.where(mask, BOUND_MARGIN - margin, 0.0) for margin, mask in
+                  zip(_log_margins(r, group, hard=False), group.bound_masks, strict=True)]
+        return jnp.concatenate([jnp.where(e > 0.0, e / BOUND_SCALE, 0.0) for e in excess])
+
+    def _anchors(self, theta: Float[Array, " params"]) -> Array:
+        """The change residuals of every parameter, then its prior's, times :attr:`anchor_weight`
+        (module docstring); none without bounds."""
+        if not self.bounded:
+            return jnp.zeros((0,))
+        change = (self.anchor_transform(theta) - self.anchor_start) / self.anchor_width
+        sigma = jnp.where(self.prior_sigma > 0, self.prior_sigma, 1.0)
+        prior = jnp.where(self.prior_sigma > 0, (theta - self.prior_mean) / sigma, 0.0)
+        return self.anchor_weight * jnp.concatenate([change, prior])
+
+    def anchor_transform(self, theta):
+        """t(theta) of the change residuals: the logarithm of a positive parameter, else the value
+        (host arrays in NumPy, traced ones in JAX)."""
+        xp = np if isinstance(theta, np.ndarray) else jnp
+        log = xp.asarray(self.anchor_log)
+        safe = xp.where(log & (theta > 0), theta, 1.0)
+        return xp.where(log, xp.log(safe), theta)
+
+    def bound_margins(self, theta: Float[Array, " params"], *, hard: bool = True) -> Array:
+        """Every bound row's margin at ``theta``, group by group and slot by slot (the order of
+        :func:`bound_rows`): ln(bound / model) for an upper bound, ln(model / bound) for a lower one,
+        >= 0 where met; +inf where a row states none. With ``hard`` (the default) the hard model
+        judges, as ``tofjax compare`` does: a row it cannot measure, or whose depth is a guess (the
+        low-SNR caveat), meets no depth bound (-inf)."""
+        parts = []
+        for group in self.groups:
+            if not group.bound_slots:
+                continue
+            r = observables(self.with_values(group.params, theta), group.model_sweep(dense=False), group.frequencies_hz,
+                            group.fusion, None if hard else self.smooth, group.processing)
+            parts += [jnp.where(mask, m, jnp.inf) for m, mask in
+                      zip(_log_margins(r, group, hard=hard), group.bound_masks, strict=True)]
+        return jnp.concatenate(parts) if parts else jnp.zeros((0,))
 
     def _split(self, per_group):
         """Per-group row arrays -> per file (in the order given), per observable."""
@@ -401,17 +558,19 @@ class Problem(eqx.Module):
         of the file (masked rows: uncertainty 1)."""
         return self._split([self._rows(self.predict_group(theta, g, dense=False), g) for g in self.groups])
 
-    def _residuals(self, per_group, penalties) -> Float[Array, " residuals"]:
-        """The data residuals of every group, then its validity residuals (:meth:`_penalty`)."""
+    def _residuals(self, per_group, penalties, hinges=(), anchors=None) -> Float[Array, " residuals"]:
+        """The data residuals of every group, then its validity residuals (:meth:`_penalty`), its
+        bound residuals (:meth:`_hinges`) and the change residuals (:meth:`_anchors`)."""
         parts = []
         for group, per_obs in zip(self.groups, per_group, strict=True):
             for (m, s), v, mask in zip(per_obs, group.values, group.masks, strict=True):
                 parts.append(jnp.where(mask, (m - v) / s, 0.0))
-        return jnp.concatenate(parts + list(penalties))
+        return jnp.concatenate(parts + list(penalties) + list(hinges) + ([anchors] if anchors is not None else []))
 
     def residuals_theta(self, theta: Float[Array, " params"]) -> Float[Array, " residuals"]:
         results = [(self.predict_group(theta, g, dense=False), g) for g in self.groups]
-        return self._residuals([self._rows(r, g) for r, g in results], [self._penalty(r, g) for r, g in results])
+        return self._residuals([self._rows(r, g) for r, g in results], [self._penalty(r, g) for r, g in results],
+                               [self._hinges(r, g) for r, g in results], self._anchors(theta))
 
     def residuals(self, u: Float[Array, " params"]) -> Float[Array, " residuals"]:
         """Whitened residuals at unconstrained parameters ``u`` (0 for masked rows)."""
@@ -425,6 +584,7 @@ class Problem(eqx.Module):
             for (m, s), v, mask in zip(self._rows(r, group), group.values, group.masks, strict=True):
                 total = total - jnp.sum(jnp.where(mask, 0.5 * ((m - v) / s) ** 2 + jnp.log(s), 0.0))
             total = total - 0.5 * jnp.sum(self._penalty(r, group) ** 2)  # the validity constraint
+            total = total - 0.5 * jnp.sum(self._hinges(r, group) ** 2)  # the bounds
         return total
 
     def log_prior(self, u: Float[Array, " params"]) -> Float[Array, ""]:
@@ -433,7 +593,11 @@ class Problem(eqx.Module):
         theta = self.constrained(u)
         sigma = jnp.where(self.prior_sigma > 0, self.prior_sigma, 1.0)
         gaussian = jnp.where(self.prior_sigma > 0, -0.5 * ((theta - self.prior_mean) / sigma) ** 2, 0.0)
-        return self.log_abs_jacobian(u) + jnp.sum(gaussian)
+        change = 0.0
+        if self.bounded:  # bounds only: the change from the start (module docstring)
+            change = -0.5 * jnp.sum((self.anchor_weight * (self.anchor_transform(theta) - self.anchor_start)
+                                     / self.anchor_width) ** 2)
+        return self.log_abs_jacobian(u) + jnp.sum(gaussian) + change
 
     def log_posterior(self, u: Float[Array, " params"]) -> Float[Array, ""]:
         return self.log_likelihood(self.constrained(u)) + self.log_prior(u)
@@ -454,6 +618,17 @@ def build_problem(parameters: tuple[FreeParameter, ...], rows: list[SweepRows], 
     def numbers(values):
         return jnp.asarray([0.0 if v is None else float(v) for v in values])
 
+    anchors = {}
+    if any(r.bounds for r in rows):
+        log = tuple(p.lower is not None and p.lower >= 0.0 and p.initial > 0.0 for p in parameters)
+        width = [ANCHOR_LOG_WIDTH if is_log else ANCHOR_LINEAR_WIDTH * (
+            (p.upper - p.lower) if p.lower is not None and p.upper is not None else 1.0)
+            for p, is_log in zip(parameters, log, strict=True)]
+        start = [np.log(p.initial) if is_log else p.initial for p, is_log in zip(parameters, log, strict=True)]
+        measured = any(np.any(m) for r in rows for _, m in r.data.values())
+        anchors = {"anchor_log": log, "anchor_start": jnp.asarray(start), "anchor_width": jnp.asarray(width),
+                   "anchor_weight": jnp.asarray(0.0 if measured else 1.0)}
+
     return Problem(
         names=tuple(p.name for p in parameters), units=tuple(p.unit for p in parameters),
         kinds=tuple(kind(p) for p in parameters), has_relative_error=relative_error is not None,
@@ -462,9 +637,53 @@ def build_problem(parameters: tuple[FreeParameter, ...], rows: list[SweepRows], 
         prior_mean=numbers(p.prior[0] if p.prior else 0.0 for p in parameters),
         prior_sigma=numbers(p.prior[1] if p.prior else 0.0 for p in parameters),
         relative_error=jnp.asarray(0.0 if relative_error is None else float(relative_error)),
-        groups=_groups(rows, merge_lamps=not any(p.name in BAND_PARAMETERS for p in parameters)),
-        smooth=smooth if smooth is not None else tj.Smooth(), validity=validity,
+        groups=_groups(rows, merge_lamps=not any(p.name in BAND_PARAMETERS for p in parameters),
+                       keep_wrapped=any(p.name in PERIOD_PARAMETERS for p in parameters)),
+        smooth=smooth if smooth is not None else tj.Smooth(), validity=validity, **anchors,
     )
+
+
+def _log_margins(r: Observables, group: FileGroup, hard: bool) -> list[Array]:
+    """Per bound slot of a group, over its data rows: ln(bound / model) for an upper bound, ln(model /
+    bound) for a lower one (>= 0 where met), the model judged as ``tofjax compare`` judges it: the
+    depth noise, the amplitude, and the depth error |reading - distance| of the camera's reading (its
+    own period's). A model value that is not positive and finite is -inf for a lower bound (and for
+    an upper one where ``hard``: the hard model has no value there); with ``hard``, a row whose depth
+    is a guess (the low-SNR caveat) meets no depth bound."""
+    n = group.n_data
+    guess = (r.caveats[:n] & tj.schema.CAVEAT_LOW_SNR) != 0
+    values = {"depth_std_m": r.depth_std_m[:n], "amplitude_mean_lsb": r.amplitude_mean_lsb[:n],
+              "depth_error_m": jnp.abs(r.depth_mean_m[:n] - group.sweep.distance_m[:n])}
+    out = []
+    for (quantity, upper), bound in zip(group.bound_slots, group.bound_values, strict=True):
+        m = values[quantity]
+        finite = jnp.isfinite(m)
+        ok = finite & (m > 0.0)
+        log_m = jnp.log(jnp.where(ok, m, 1.0))
+        margin = jnp.log(bound) - log_m if upper else log_m - jnp.log(bound)
+        # a zero (an exact reading) meets an upper bound and breaks a lower one; no value breaks both
+        margin = jnp.where(ok, margin, jnp.where(finite & upper, jnp.inf, -jnp.inf if hard else -NO_VALUE))
+        if hard:
+            margin = jnp.where(~finite, -jnp.inf, margin)
+            if quantity != "amplitude_mean_lsb":
+                margin = jnp.where(guess, -jnp.inf, margin)
+        out.append(margin)
+    return out
+
+
+def bound_rows(problem: Problem, rows: list[SweepRows]) -> list[dict | None]:
+    """What each entry of :meth:`Problem.bound_margins` is: ``{"file", "row", "line", "column", "bound"}``
+    (the file's index, the row's index and line, the tightest column there and its value), or ``None``
+    where the row states no bound of that slot."""
+    out: list[dict | None] = []
+    for group in problem.groups:
+        for quantity, upper in group.bound_slots:
+            for i in group.files:
+                values, columns = tightest(rows[i], quantity, upper)
+                for k, (v, c) in enumerate(zip(values, columns, strict=True)):
+                    out.append(None if c is None else {"file": i, "row": k, "line": rows[i].line(k), "column": c,
+                                                       "bound": float(v)})
+    return out
 
 
 def _curves(r: Observables, group: FileGroup) -> Array:
@@ -495,13 +714,14 @@ def linearize(problem: Problem, u) -> Linearization:
     least-squares steps and for everything the fit reports at its solution."""
     def outputs(v):
         theta = problem.constrained(v)
-        per_group, penalties, curves = [], [], []
+        per_group, penalties, hinges, curves = [], [], [], []
         for group in problem.groups:
             r = problem.predict_group(theta, group)
             per_group.append(problem._rows(r, group))
             penalties.append(problem._penalty(r, group))
+            hinges.append(problem._hinges(r, group))
             curves.append(_curves(r, group))
-        residuals = problem._residuals(per_group, penalties)
+        residuals = problem._residuals(per_group, penalties, hinges, problem._anchors(theta))
         return (residuals, tuple(curves)), (theta, residuals, problem._split(per_group), tuple(curves))
 
     (jac, curves_jac), (theta, residuals, evaluated, curves) = jax.jacfwd(outputs, has_aux=True)(u)
@@ -527,3 +747,10 @@ def batched_log_posterior(problem: Problem, u_batch):
 @tj.jit
 def batched_curves(problem: Problem, thetas):
     return jax.vmap(problem.dense_curves)(thetas)
+
+
+@tj.jit
+def batched_bound_margins(problem: Problem, thetas):
+    """:meth:`Problem.bound_margins` (the hard model) at each of ``thetas``: one program for the scans
+    of every parameter (:func:`fitting._bounds.intervals`)."""
+    return jax.vmap(problem.bound_margins)(thetas)

@@ -40,8 +40,10 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "calibrate", help="fit sensor parameters to measured sweeps (least squares, optional emcee posterior)",
         description="Fit configuration parameters to the amplitude and depth-noise rows of tofjax-sweep files by "
-                    "Levenberg-Marquardt least squares, optionally followed by emcee posterior sampling. Writes "
-                    "calibrated.toml (usable by tofjax simulate), calibration.json, figures, report.md and report.html.")
+                    "Levenberg-Marquardt least squares, optionally followed by emcee posterior sampling. A file's "
+                    "bounds (a published specification, format 4) constrain the fit; with bounds only, the fit is the "
+                    "smallest change from the configuration that meets every bound. Writes calibrated.toml (usable by "
+                    "tofjax simulate), calibration.json, figures, report.md and report.html.")
     p.add_argument("sweeps", nargs="+", type=Path, metavar="SWEEP.csv", help="tofjax-sweep files")
     p.add_argument("--config", type=Path, help="camera configuration TOML (default: built-in defaults)")
     p.add_argument("--fit", required=True, help="comma-separated dotted names, e.g. "
@@ -117,6 +119,16 @@ def _print_estimates(ls, posterior=None) -> None:
         print(line, flush=True)
 
 
+def _print_changes(ls) -> None:
+    """The estimates of a fit of bounds only, with their change from the initial values (a
+    specification states no uncertainty, so no sigma)."""
+    width = max(len(n) for n in ls.names)
+    for n, u, e, i in zip(ls.names, ls.units, ls.estimate, ls.initial, strict=True):
+        change = f"x {e / i:.4g} of {i:.6g}" if i > 0 and e > 0 else f"{e - i:+.4g} from {i:.6g}"
+        unit = f" {u}" if u not in ("1", "-", "") else ""
+        print(f"  {n:<{width}} = {e:.6g}{unit} ({change})", flush=True)
+
+
 def run(args) -> int:
     import tofjax as tj
     from tofjax.cli import CommandError, on_interrupt, output_dir, untouched_note
@@ -133,8 +145,9 @@ def run(args) -> int:
                                         priors=dict(args.prior), relative_error=args.relative_error,
                                         min_snr=args.min_snr, initial=dict(args.initial))
         used = sum(len(r.used(o)) for r in rows for o in r.data)
-        print(f"plan: fit {', '.join(p.name for p in parameters)} to {used} measured values in {len(rows)} file(s); "
-              f"into {args.out}")
+        bounded = sum(int(r.bounded.sum()) for r in rows)
+        print(f"plan: fit {', '.join(p.name for p in parameters)} to {used} measured values"
+              + (f" and {bounded} rows of bounds" if bounded else "") + f" in {len(rows)} file(s); into {args.out}")
         return 0
     on_interrupt(untouched_note(args.out))
     try:
@@ -157,11 +170,24 @@ def run(args) -> int:
               "the configuration has; free the limit your data sheet leaves open with --fit (pixel.v_saturated_v, "
               "pixel.full_well_e with --initial, adc.v_ref_pos_v; report.md lists the rows)")
     if ls.converged:  # the estimates as soon as the fit ends (a posterior may take minutes more)
-        print(f"least squares: converged in {ls.steps} steps, chi^2/dof = {ls.chi2_per_dof:.3f} ({ls.dof} dof)")
-        _print_estimates(ls)
+        if cal.problem.bounds_only:
+            print(f"least squares: converged in {ls.steps} steps: no measured row, so the smallest change from the "
+                  "configuration that meets every bound (a factor 2 of a positive parameter costs one unit)")
+            _print_changes(ls)
+        else:
+            print(f"least squares: converged in {ls.steps} steps, chi^2/dof = {ls.chi2_per_dof:.3f} ({ls.dof} dof)")
+            _print_estimates(ls)
         note = offset_note(ls)
         if note:
             print(note)
+        if cal.bounds is not None:
+            from ._bounds import headline, interval_line, row_lines
+
+            print(f"bounds: {headline(cal.bounds)}")
+            for line in row_lines(cal.bounds, limit=3):
+                print(f"  {line}")
+            for p in cal.bounds.intervals:
+                print(f"  {interval_line(p)}")
         if args.mcmc:
             from ._posterior import ShortChainWarning
 
@@ -189,6 +215,10 @@ def run(args) -> int:
                            f"(report.md); raise --max-steps, start closer (--initial) or fit fewer parameters", 1)
     for flag in ls.bound_flags:
         print(f"warning: {flag['message']}")
+    for flag in cal.bounds.physical if cal.bounds is not None else ():
+        print(f"warning: {flag['message']}")
+    if cal.refused:
+        print(f"warning: calibrated.toml not written: the configuration refuses the estimates: {cal.refused}")
     for message in ls.degeneracies:
         print(f"note: {message}")
     if cal.posterior is not None:

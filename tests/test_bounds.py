@@ -127,10 +127,44 @@ def test_depth_bounds_are_judged_on_the_cameras_reading():
     np.testing.assert_array_equal(checks["amplitude_mean_lsb_ge"].met, [True, True, True])
 
 
-def test_calibration_refuses_a_file_of_bounds_only(tmp_path):
+def _spec_file(tmp_path, text=HEAD + ROWS):
     path = tmp_path / "spec.csv"
-    path.write_text(HEAD.replace("100000000.0", "80320000.0") + ROWS, encoding="utf-8")
-    with pytest.raises(fitting.CalibrationInputError, match=r"spec\.csv: holds bounds only \(depth_std_m_lt, "
-                                                            r"depth_error_m_le: a published specification"):
-        fitting.load_rows(path, fitting.read_measurement(path, __import__("tofjax").Config()).config,
-                          relative_error=0.1)
+    path.write_text(text.replace("100000000.0", "80320000.0"), encoding="utf-8")  # the default camera's frequency
+    return path
+
+
+def test_calibration_takes_a_file_of_bounds_only(tmp_path):
+    """Issue 50 item 4: a specification is calibration input (it was refused: 'holds bounds only'). Its
+    rows need no n_frames and no relative error; its bounds are kept per column with their statements."""
+    import tofjax as tj
+
+    rows = fitting.load_rows(_spec_file(tmp_path), tj.Config())
+    assert [(b.column, b.quantity, b.upper) for b in rows.bounds] == [("depth_std_m_lt", "depth_std_m", True),
+                                                                      ("depth_error_m_le", "depth_error_m", True)]
+    np.testing.assert_array_equal(rows.bounds[1].values, [np.nan, 0.005])
+    assert rows.bounds[0].statement == "'temporal noise < 1 mm', a datasheet"
+    assert rows.bounded.tolist() == [True, True] and sum(len(rows.used(n)) for n in rows.data) == 0
+
+
+def test_a_bound_the_calibration_cannot_judge_is_refused_in_one_line(tmp_path, capsys):
+    """A depth-noise bound on a camera without noise (the model predicts none), and an upper bound of 0,
+    are refused naming the file and column, before any computation; the command prints one line."""
+    import tofjax as tj
+    from tofjax.cli import main
+
+    path = _spec_file(tmp_path)
+    quiet = tj.Config().replace("pixel.noise", False)
+    with pytest.raises(fitting.CalibrationInputError, match=r"spec\.csv: column depth_std_m_lt \(field 5\) bounds the "
+                                                            r"depth noise, but the configuration has pixel\.noise = "
+                                                            r"false: the model predicts no noise"):
+        fitting.load_rows(path, quiet)
+    config = tmp_path / "quiet.toml"
+    config.write_text("[pixel]\nnoise = false\n")
+    assert main(["calibrate", str(path), "--config", str(config), "--fit", "illumination.peak_power_w",
+                 "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("tofjax: error: ") and err.count("\n") == 1 and "Traceback" not in err
+    zero = _spec_file(tmp_path, HEAD + ROWS.replace("1.0,0.001,0,,0.001,0.005", "1.0,0.001,0,,0.001,0"))
+    with pytest.raises(fitting.CalibrationInputError, match=r"spec\.csv:11: column depth_error_m_le \(field 6\) = 0: an "
+                                                            r"upper bound of 0 leaves no room"):
+        fitting.load_rows(zero, tj.Config())

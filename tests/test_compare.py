@@ -2,6 +2,7 @@
 additions, multi-frequency fusion, datasheet inputs and validity at the solution (issue 11)."""
 
 import base64
+import json
 import re
 import types
 from pathlib import Path
@@ -330,3 +331,123 @@ def test_a_file_under_another_lamp_is_compared_under_the_common_lamp():
     own = ft._problem.hard_observables(m.config.params, m.sweep, tuple(m.frequencies_hz), m.fusion)
     for name in ("amplitude_mean_lsb", "depth_std_m", "amplitude_std_lsb"):
         np.testing.assert_allclose(c.model[name], np.asarray(getattr(own, name)), rtol=1e-12, atol=0, err_msg=name)
+
+
+# --- Issue 50 item 4: a datasheet's bounds calibrate a preset --------------------------------------
+# One problem structure for both tests below (5 rows, one upper bound on the depth noise, the power
+# and the filter fitted): a bounds-only file and one with measured rows share its compiled programs.
+SPEC_D = np.array([1.0, 1.5, 2.0, 2.5, 3.0])
+SPEC_FIT = ["illumination.peak_power_w", "scene.filter_half_width_m"]
+
+
+def _spec(path, bound, depth_std=None, frames=np.nan):
+    """Rows at :data:`SPEC_D` in the dark (2 ms), an upper bound on the depth noise (NaN: none there)
+    and, where given, measured depth noise; ``source: specification`` without measured rows."""
+    n = len(SPEC_D)
+    columns = {"distance_m": SPEC_D, "integration_time_s": np.full(n, 2e-3), "illuminance_lx": np.zeros(n),
+               "n_frames": np.broadcast_to(frames, (n,)).astype(float), "depth_std_m_le": bound}
+    if depth_std is not None:
+        columns["depth_std_m"] = depth_std
+    return _file(path, columns, source="specification" if depth_std is None else "measurement",
+                 **{"bound.depth_std_m_le": "'temporal noise <= x', a test"})
+
+
+def _power_meeting(bound):
+    """The power at which the hard model's worst row meets its bound with equality (bisection in log
+    power between 1 and 12 W, where the nearest row is not yet saturated): the independent answer."""
+    rows = np.isfinite(bound)
+
+    def worst(power):
+        p = tj.Config().replace("illumination.peak_power_w", power).params
+        r = tj.predict(p, tj.Sweep.points("distance", SPEC_D[rows], np.zeros(rows.sum()), np.full(rows.sum(), 2e-3),
+                                          np.full(rows.sum(), float(p.pixel.temperature_c))))
+        return float(np.max(np.asarray(r.depth_std_m) / bound[rows]))
+
+    lo, hi = 1.0, 12.0
+    assert worst(lo) > 1 > worst(hi)
+    for _ in range(26):  # to 1e-7
+        mid = (lo * hi) ** 0.5
+        lo, hi = (mid, hi) if worst(mid) > 1 else (lo, mid)
+    return hi
+
+
+def test_a_specification_alone_calibrates_to_the_smallest_change(tmp_path, capsys):
+    """Issue 50 item 4. A file of bounds only (noise <= 5 mm at 1-3 m in the dark): the calibration
+    finds the smallest change from the configuration that meets every bound. The power is the
+    hard model's bisection for the worst row (3 m) met with equality, held 0.1 % inside it; the filter,
+    which no bound sees (no ambient light), stays where it started, free over its whole range; the
+    bounds pin the power from below (the 3 m row) and above (the 1.0 m row saturates); 9 W is beyond
+    laser class 1 by the eye-safety estimate."""
+    path = _spec(tmp_path / "spec.csv", np.full(len(SPEC_D), 5e-3))
+    out = tmp_path / "cal"
+    assert main(["calibrate", str(path), "--fit", ",".join(SPEC_FIT), "--initial", "scene.filter_half_width_m=2e-8",
+                 "--out", str(out), "--quiet"]) == 0
+    console = capsys.readouterr().out
+    result = json.loads((out / "calibration.json").read_text())
+    estimate = {k: v["estimate"] for k, v in result["least_squares"]["parameters"].items()}
+    expected = _power_meeting(np.full(len(SPEC_D), 5e-3))
+    assert 7.0 < expected < 12.0 and expected < estimate[SPEC_FIT[0]] < 1.005 * expected
+    assert estimate[SPEC_FIT[1]] == pytest.approx(2e-8, rel=1e-6)
+    lines = [int(x) for x in sf.read_sweep(path).lines]
+    bounds = result["bounds"]
+    assert (bounds["rows"], bounds["met"], bounds["unmet"]) == (5, 5, [])
+    assert [a["line"] for a in bounds["active"]] == [lines[-1]]  # 3 m, met with equality
+    power, width = bounds["parameters"]
+    assert power["status"] == "pinned below" and power["lower_breaks"]["line"] == lines[-1]
+    assert power["lower"] == pytest.approx(estimate[SPEC_FIT[0]], rel=3e-3)
+    assert power["upper_breaks"]["line"] == lines[0] and 10.0 < power["upper"] < 15.0  # the 1 m row saturates
+    assert width["status"] == "free" and width["upper_end"] == "range" and width["upper"] == pytest.approx(1e-6)
+    (laser,) = bounds["physical"]
+    assert laser["kind"] == "laser class" and laser["ratio"] > 1.0
+    assert "least squares: converged" in console and "smallest change from the configuration" in console
+    assert "bounds: 5 of 5 bound rows met by the hard model at the solution; 1 active" in console
+    assert f"{SPEC_FIT[0]} = " in console and "pinned below" in console and ": free;" in console
+    assert "warning: the fitted illumination" in console and "beyond laser class 1" in console
+    assert "an estimate, not a classification" in console
+    report = (out / "report.md").read_text()
+    assert "## Published bounds" in report and "| illumination.peak_power_w | W | 1.2 |" in report
+    assert f"active: spec.csv line {lines[-1]}: depth_std_m_le (bound 5 mm" in report
+    assert {"compare_initial_bounds.csv", "compare_calibrated_bounds.csv", "calibrated.toml"} <= {p.name for p in out.iterdir()}
+
+
+def test_a_bound_beside_measured_rows_constrains_the_fit(tmp_path):
+    """Issue 50 item 4. Measured noise at 1-2 m of a 3 W camera (exact: the fit alone would return
+    3 W) beside a datasheet's 8 mm at 2.5-3 m, which needs more light: the bound becomes active, the
+    power is where the worst bounded row meets it (the hard model's bisection), and the data pay for
+    it in chi^2. The change residuals weigh nothing beside measured rows."""
+    truth = tj.predict(tj.Config().replace("illumination.peak_power_w", 3.0).params,
+                       tj.Sweep.points("distance", SPEC_D, np.zeros(5), np.full(5, 2e-3), np.full(5, 25.0)),
+                       smooth=tj.Smooth())
+    measured = np.where(SPEC_D <= 2.0, np.asarray(truth.depth_std_m), np.nan)
+    bound = np.where(SPEC_D > 2.0, 8e-3, np.nan)
+    path = _spec(tmp_path / "mixed.csv", bound, depth_std=measured, frames=np.where(SPEC_D <= 2.0, 100.0, np.nan))
+    cal = ft.calibrate([path], fit=SPEC_FIT, initial={SPEC_FIT[1]: 2e-8})
+    assert not cal.problem.bounds_only and cal.least_squares.dof == 1
+    expected = _power_meeting(bound)
+    assert expected > 1.3 * 3.0 and expected < cal.estimates[SPEC_FIT[0]] < 1.005 * expected
+    assert cal.least_squares.chi2 > 10.0  # the measured rows are pulled off their 3 W
+    lines = [int(x) for x in sf.read_sweep(path).lines]
+    assert [a["line"] for a in cal.bounds.active] == [lines[-1]] and cal.bounds.unmet == []
+    assert cal.bounds.intervals[0]["status"] == "pinned below"
+
+
+def test_fitted_values_beyond_a_physical_limit_are_reported_not_raised(tmp_path):
+    """A responsivity whose quantum efficiency exceeds 1 (the configuration's check refuses it) and a
+    contrast at 1, the top of its range (the bounds would ask for more), are flags of the report, not a
+    traceback; without a valid configuration no calibrated.toml is written (Calibration.refused)."""
+    path = _spec(tmp_path / "spec.csv", np.full(len(SPEC_D), 5e-3))
+    config = tj.Config()
+    rows = [ft.load_rows(path, config)]
+    names = ["pixel.photo_responsivity_a_per_w", "pixel.demodulation_contrast"]
+    problem = ft.build_problem(ft.make_parameters(names, {names[0]: 0.25, names[1]: 0.42}), rows)
+    flags = ft.physical_flags(config, rows, problem, np.array([0.9, 1.0]))
+    kinds = [f["kind"] for f in flags]
+    assert kinds == ["configuration", "out of range"]
+    assert "quantum efficiency above 1" in flags[0]["message"]
+    assert flags[1]["message"].startswith("pixel.demodulation_contrast = 1 is at the edge of its physical range")
+    assert "a value above 1, out of range" in flags[1]["message"]
+    ls = types.SimpleNamespace(names=tuple(names), estimate=np.array([0.9, 1.0]))
+    cal = ft.Calibration(config, rows, problem, ls, None)
+    assert "quantum efficiency above 1" in cal.refused
+    assert ft.Calibration(config, rows, problem, types.SimpleNamespace(names=tuple(names), estimate=np.array(
+        [0.25, 0.5])), None).refused is None
