@@ -43,7 +43,7 @@ from tofjax.sweepfile import bound_column
 
 from ._compare import BoundCheck, _quantity_value, judge_bounds
 from ._data import SweepRows
-from ._least_squares import AT_BOUND
+from ._least_squares import at_edge
 from ._problem import (BOUND_ACTIVE, PERIOD_PARAMETERS, Problem, batched_bound_margins, bound_rows, reading_period,
                        wrapped_rows)
 
@@ -271,7 +271,7 @@ def physical_flags(config: tj.Config, rows: list[SweepRows], problem: Problem, t
                 continue
             span = (float(problem.upper[k]) - float(problem.lower[k])) if problem.kinds[k] == "both" else \
                 max(abs(value), abs(edge), 1e-300)
-            if abs(value - edge) <= AT_BOUND * span:
+            if at_edge(value, edge, float(problem.initial[k]), span):
                 flags.append({"kind": "out of range", "message": (
                     f"{name} = {value:.6g} is at the edge of its physical range ({key.range_text()}): the bounds or data "
                     f"ask for a value {side} {edge:g}, out of range (a {name.split('.')[1]} {side} {edge:g} is not "

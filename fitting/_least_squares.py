@@ -260,19 +260,26 @@ def _chi2(problem: Problem, u: np.ndarray) -> float:
 AT_BOUND = 1e-3
 
 
+def at_edge(value: float, edge: float, start: float, span: float) -> bool:
+    """Whether ``value`` lies at ``edge``: closer than :data:`AT_BOUND` of the interval's ``span`` and
+    of the ``start``'s own distance to it (a capacitance of 4e-17 F that the fit left where it started
+    is not at the bound 0 of its range (0, 1e-12]; pushed from there to 1e-25, it is)."""
+    return abs(value - edge) <= AT_BOUND * min(span, max(abs(start - edge), 1e-300))
+
+
 def bound_flags(problem: Problem, theta: np.ndarray, sigma: np.ndarray) -> list[dict]:
     """Parameters at a bound (the optimum lies outside or on it: the estimate and its sigma do
-    not describe the data's preference) or within 2 sigma of one (the Gaussian uncertainty crosses
-    it)."""
+    not describe the data's preference; :func:`at_edge`) or within 2 sigma of one (the Gaussian
+    uncertainty crosses it)."""
     out = []
-    lower, upper = np.asarray(problem.lower), np.asarray(problem.upper)
+    lower, upper, start = np.asarray(problem.lower), np.asarray(problem.upper), np.asarray(problem.initial)
     for k, (name, kind) in enumerate(zip(problem.names, problem.kinds, strict=True)):
         sides = {"both": ("lower", "upper"), "lower": ("lower",)}.get(kind, ())
         for side in sides:
             bound = lower[k] if side == "lower" else upper[k]
             span = (upper[k] - lower[k]) if kind == "both" else max(abs(theta[k]), abs(bound), 1e-300)
             gap = abs(theta[k] - bound)
-            if gap <= AT_BOUND * span:
+            if at_edge(theta[k], bound, start[k], span):
                 message = (f"{name} = {theta[k]:.6g} is at its {side} bound {bound:g}: the data push it there, so "
                            "its estimate and sigma are not a measurement; widen the bound (--bounds) if that is "
                            "physical, or the model lacks what the data show")

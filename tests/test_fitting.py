@@ -309,3 +309,14 @@ def test_example_generator_reproduces_the_shipped_files(tmp_path, monkeypatch):
         old = sf.read_sweep(path)
         for column, values in old.columns.items():
             np.testing.assert_allclose(new.columns[column], values, rtol=1e-12, atol=0.0)
+
+
+def test_a_parameter_where_it_started_is_not_at_its_bound():
+    """A capacitance of 4e-17 F the fit left where it started is not 'at its lower bound 0' of its range
+    (0, 1e-12] (issue 49 item 7: a parameter the data cannot see stood at 5 and was called at 0); pushed
+    from there towards 0, it is."""
+    from fitting._least_squares import at_edge
+
+    assert not at_edge(4e-17, 0.0, 4e-17, 1e-12)
+    assert not at_edge(5.0, 0.0, 5.0, 100.0)
+    assert at_edge(1e-25, 0.0, 4e-17, 1e-12) and at_edge(1e-4, 0.0, 5.0, 100.0)
