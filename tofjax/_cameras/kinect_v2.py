@@ -60,6 +60,10 @@ _SBAA217 = ("Texas Instruments, S. C. Sadhu, 'Lenses for 3D Time-of-Flight (ToF)
             "SBAA217 (2016), Table 1")
 _CMR = ("C. Bamji, K. Salama (Canesta, now Microsoft), 'Method and system to differentially enhance sensor dynamic "
         "range using enhanced common mode reset', US 7,176,438 (the pixel family's background suppression)")
+_CORTI = ("A. Corti, S. Giancola, G. Mainetti, R. Sala, 'A metrological characterization of the Kinect V2 time-of-flight "
+          "camera', Robotics and Autonomous Systems 75 (2016), highlights and abstract (docslib.org/doc/13042799)")
+_WASEN = ("O. Wasenmueller, D. Stricker, 'Comparison of Kinect v1 and v2 Depth Images in Terms of Accuracy and Precision', "
+          "ACCV 2016 workshops, abstract")
 _DOCS = "this preset's page, docs/cameras/kinect-v2.md (its derivations D1-D9)"
 
 #: The three modulation frequencies in the engine's raw-image order (D1): 240 MHz / (3, 15, 2).
@@ -92,7 +96,7 @@ PRESET = Preset(
         "mathworks": _MATHWORKS, "smeenk": _SMEENK, "vgleaks": _VGLEAKS, "semiacc": _SEMIACC, "hothw": _HOTHW,
         "toms": _TOMS, "stuehmer2015": _STUEHMER, "chipworks": _CHIPWORKS, "codingtrain": _CODINGTRAIN, "flat": _FLAT,
         "fankhauser2015": _FANKHAUSER, "msdoc": _MSDOC, "tweaktown": _TWEAKTOWN, "mlx75027": _MLX, "fxtof1": _FXTOF1,
-        "sbaa217": _SBAA217, "cmr": _CMR, "docs": _DOCS,
+        "sbaa217": _SBAA217, "cmr": _CMR, "corti2016": _CORTI, "wasenmuller2016": _WASEN, "docs": _DOCS,
     },
     values={
         # --- illumination -------------------------------------------------------------------------
@@ -103,8 +107,9 @@ PRESET = Preset(
             "of log(model / measured) over the seven rows with pixel.readout_noise_e: 4.03 W, model / measured "
             "0.72-1.14 ([docs] D8); every row stays within a factor 2 for 1.48-8.33 W (read noise 0). Only the signal "
             "scale P R k_lens c t / N^2 is pinned (the optics' keys below are degenerate with it). tofjax's class 1 "
-            "estimate for a small source puts it at 4.6 x its limit (average power); the three diffused laser "
-            "windows ([chipworks]) are an extended source, whose limit is C6 = alpha / 1.5 mrad higher: alpha >= 7.2 "
+            "estimate for a small source puts it at 4.6 x its limit (average power); three lasers behind "
+            "patterned filters ([chipworks]) that spread them over 70 x 60 deg are an extended source, whose limit "
+            "is C6 = alpha / 1.5 mrad higher: alpha >= 7.2 "
             "mrad (0.72 mm seen from 100 mm) meets it ([docs] D9)"),
         "illumination.wavelength_m": (
             860e-9, "derived: [bamji2015] abstract: 'a responsivity of 0.14 A/W at 860 nm', the sensor's stated "
@@ -113,7 +118,8 @@ PRESET = Preset(
             [70.6, 60.0], "derived: the illuminator lights the depth camera's field (camera.fov_deg's 70.6 x 60 "
                           "deg with the lens' distortion, [smeenk], [vgleaks] '70 horizontal by 60 vertical'): no "
                           "illumination field is published; [chipworks]: 'three laser diodes, and the filters over "
-                          "them are patterned with what looks like a grid' (diffusers)"),
+                          "them are patterned with what looks like a grid'; the pixels beyond the spot's 42.4 deg corner "
+                          "(the lens' corners reach 44.6 deg: 3.8 % of the pixels) are outside it in a frame"),
         # --- illumination waveform -------------------------------------------------------------------
         "illumination_waveform.modulation_frequency_hz": (
             FREQUENCIES_HZ[0],
@@ -203,9 +209,10 @@ PRESET = Preset(
                                         " * 0.000031 * M_PI;'; processing.calibration removes the offset"),
         "pixel.phase_drift_rad_per_c": (
             0.0, "derived: the warmed-up state: the sensor is cooled by a fan ([tweaktown] 'the Kinect now packed "
-                 "enough power that a Fan is required to keep things nice and cool'); its warm-up drift is reported "
-                 "(corti2016, wasenmuller2016, abstracts) but no coefficient was reachable; the characterisation it is "
-                 "fitted to is of a running camera"),
+                 "enough power that a Fan is required to keep things nice and cool'); a temperature influence is "
+                 "reported ([corti2016] 'The temperature of the Kinect V2 has an influence in the distance "
+                 "measurement'; [wasenmuller2016] lists temperature among the 'influencing factors') but no coefficient "
+                 "was reachable; the characterisation it is fitted to is of a running camera"),
         "pixel.readout_noise_e": (
             READ_NOISE_E,
             "fitted: with illumination.peak_power_w to [fankhauser2015]'s seven rows (1-4 m): the least-squares "
@@ -285,8 +292,8 @@ PRESET = Preset(
         "frame.vignetting": (0.0, "derived: not published; the relative illumination above is the lens' whole "
                                   "off-axis falloff"),
         "frame.illumination_falloff_exponent": (
-            0.0, "derived: not published; the evenest profile tofjax models: a flood illuminator behind diffusers "
-                 "([chipworks]) is shaped to even out its image's exposure"),
+            0.0, "derived: not published; the evenest profile tofjax models: a flood illuminator behind patterned "
+                 "filters ([chipworks]) is shaped to even out its image's exposure"),
         "frame.prnu_sigma": (0.01, "derived: not published, and not corrected: the device hands the engine per-pixel "
                                    "phase (P0) tables and lens parameters, no gain table ([lf2]); a CMOS sensor's usual "
                                    "1 % (the thesis camera's); it changes no phase"),
@@ -297,11 +304,15 @@ PRESET = Preset(
         "frame.threshold_sigma": (0.0, "derived: not published; it moves only each pixel's saturation and SBI "
                                        "threshold, which indoor scenes do not reach"),
         "frame.max_phase_noise_rad": (
-            0.52, "derived: [docs] D6, the engine's dealiasing consistency test ([lf2] cpu_depth_packet_processor.cpp "
-                  "l. 656-681): a pixel is invalid where its three unwrapped phases stray from the line (80, 16, 120) "
-                  "by more than thr = clamp(12.89 a^-0.533, 0.349, 0.611) rad (a the largest amplitude); with phase "
-                  "noise s per frequency the stray has two components of s each and exceeds 0.611 rad (the weak "
-                  "signal's) in half the frames at s = 0.611 / 1.177 = 0.52 rad"),
+            0.21, "derived: [docs] D6, the engine's low-signal invalidation: after the bilateral filter a pixel is "
+                  "dropped where its neighbours' phasor directions disagree ('joint_bilateral_max_edge = 2.5f', [lf2] "
+                  "cpu_depth_packet_processor.cpp l. 569) or its three unwrapped phases stray from the line (80, 16, "
+                  "120) by more than thr = clamp(12.89 a^-0.533, 0.349, 0.611) rad (l. 656-681; 0.611 for a weak "
+                  "signal); a Monte Carlo of that code (2e5 draws per point, a flat surface at 0.5-4.5 m) delivers "
+                  "half the frames at 0.62 rad of phase noise per pixel and frequency, which tofjax's 3 x 3 box "
+                  "(the threshold reads the filtered noise) makes 0.62 / 3 = 0.21 rad: the preset flags a 20 % target "
+                  "from 7.8 m, a 10 % one from 5.5 m, a 5 % one from 3.9 m (fused noise 40 mm); [msdoc]: 'The maximum "
+                  "depth distance is 8 meters, although reliability starts to degrade at around 4.5 meters'"),
         "frame.min_amplitude_lsb": (0.0, "derived: off: the engine's amplitude thresholds ('individual_ab_threshold = "
                                          "3', 'ab_threshold = 10', [lf2] l. 65-66) are in the table's units, whose "
                                          "electron scale is not published; low signal is max_phase_noise_rad's"),
