@@ -71,7 +71,14 @@ def test_preset_values_are_the_datasheets_numbers():
     assert (k2.pixel.demodulation_contrast, k2.pixel.photo_responsivity_a_per_w) == (0.67, 0.14)
     assert (ti.pixel.demodulation_contrast, ti.pixel.photo_responsivity_a_per_w) == (0.45, 0.35)
     assert k2.adc.resolution_bits == 10 and ti.adc.resolution_bits == 12
-    assert k2.illumination_waveform.modulation_frequency_hz == ti.illumination_waveform.modulation_frequency_hz == 50e6
+    assert ti.illumination_waveform.modulation_frequency_hz == 50e6
+    # the Kinect v2 runs its own mode: 80, 16 and 120 MHz (240 MHz / 3, 15, 2, libfreenect2's decoder), 3 phases
+    # each, the unwrapped phases averaged; the 10 um pixel of 512 x 424 (Bamji et al. 2015)
+    k2c = preset_config("kinect-v2")
+    assert tj.Camera.from_config(k2c).frequencies_hz == (80e6, 16e6, 120e6)
+    assert k2.pixel.n_phases == 3 and k2c.values["illumination_waveform"]["frequency_fusion"] == "phase_average"
+    assert k2c.values["camera"]["pixel_pitch_m"] == [10e-6, 10e-6]
+    assert k2c.values["camera"]["optical_area_m"] == pytest.approx([5.12e-3, 4.24e-3])
     # quantum efficiency of the quoted responsivities: R h c / (q lambda) = 0.20 (860 nm) and 0.51 (850 nm)
     qe = {n: float(p.pixel.photo_responsivity_a_per_w * 6.62607015e-34 * 299792458.0
                    / (1.602176634e-19 * p.illumination.wavelength_m)) for n, p in (("k2", k2), ("ti", ti))}
