@@ -163,9 +163,6 @@ def _files_of(name: str) -> list[Path]:
 
 #: The presets whose every key of the camera is sourced (the rest mark theirs unsourced).
 SOURCED = [name for name, p in PRESETS.items() if not p.unsourced()]
-#: Products whose maker publishes no performance in any source reached: nothing to meet, as the camera's
-#: page says (the words here); the exemption ends when a file names the preset.
-UNPUBLISHED = {"lucid-helios2": "No specification file exists"}
 DOCS = Path(__file__).parent.parent / "docs" / "cameras"
 
 
@@ -179,9 +176,9 @@ def test_a_sourced_preset_predicts_what_its_camera_delivers(name):
     if not p.product:  # a reference camera on a sensor: nothing published to meet (its docs page says so)
         assert not files and "NOT a product" in p.title
         return
-    if name in UNPUBLISHED:
-        assert not files, f"{name}: a published specification or characterisation exists now: drop its exemption"
-        assert UNPUBLISHED[name] in (DOCS / f"{name}.md").read_text(encoding="utf-8")
+    if p.unpublished:  # a product whose maker publishes no performance: its page says so (Preset.unpublished)
+        assert not files, f"{name}: a published specification or characterisation exists now: clear its unpublished"
+        assert "No specification file exists" in (DOCS / f"{name}.md").read_text(encoding="utf-8")
         return
     assert files, f"{name}: no published specification or characterisation in fitting/validation"
     missed = {}

@@ -75,6 +75,8 @@ class Preset:
       does not set (the thesis preset: its tables);
     - ``product``: whether the preset is a product one can buy (a reference camera on a sensor, built
       from its datasheet and stated typical parts, is not: it has no published performance to meet);
+    - ``unpublished``: for a product whose maker publishes no performance anywhere the sources reach,
+      why (its docs page says the same); empty: its published performance is in ``fitting/validation``;
     - ``unmet``: the rows of the camera's published specification or characterisation
       (``fitting/validation/``) that the preset does not meet, each with the physical reason:
       ``"<file>:<column>:line <n>"`` (the row's line in the file) -> reason (tests/test_presets.py holds every other row to
@@ -88,6 +90,7 @@ class Preset:
     section_sources: Mapping[str, str] = dataclasses.field(default_factory=dict)
     unmet: Mapping[str, str] = dataclasses.field(default_factory=dict)
     product: bool = True
+    unpublished: str = ""
 
     def __post_init__(self):
         for dotted, (_, note) in self.values.items():

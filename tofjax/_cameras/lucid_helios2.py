@@ -191,4 +191,5 @@ PRESET = Preset(
                "beside a straight depth step differs from 3 of its 8 neighbours and is kept, a mixed pixel on the step "
                "from 6 and is removed; 5 is the majority"),
     },
+    unpublished=("LUCID publishes no accuracy or precision for the Helios2 in any source reached (docs/cameras/lucid-helios2.md): its predictions have nothing to be checked against"),
 )
