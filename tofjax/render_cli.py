@@ -35,7 +35,7 @@ def register(subparsers) -> None:
                            '"tofjax[open3d]"; docs/renderers.md)')
     p.add_argument("--mesh-pose", type=_pose, metavar="X,Y,Z,RX,RY,RZ",
                    help="where --mesh goes: turned by RX, then RY, then RZ degrees about the camera's x, y and z axes, "
-                        "then moved by X,Y,Z m (default 0,0,0,0,0,0)")
+                        "then moved by X,Y,Z m (default 0,0,0,0,0,0; a negative X needs the form --mesh-pose=-1,0,2,0,0,0)")
     p.add_argument("--reflectivity", type=_reflectivity, metavar="R",
                    help="--mesh's Lambertian reflectivity, 0 to 1 (default: the configuration's scene.reflectivity)")
     p.add_argument("--config", type=Path, help="TOML configuration (default: built-in defaults)")
