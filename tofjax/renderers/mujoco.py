@@ -68,6 +68,12 @@ def _camera_id(model, camera) -> int:
     return int(camera)
 
 
+def _sensor_size(model, camera_id: int):
+    """The camera's ``sensorsize`` (0, 0: none, a camera of ``fovy``)."""
+    sizes = getattr(model, "cam_sensorsize", None)
+    return (0.0, 0.0) if sizes is None else sizes[camera_id]
+
+
 class DepthCamera:
     """A MuJoCo camera that renders depth and segmentation, frame after frame (one OpenGL context,
     kept): ``DepthCamera(model, "tof")``, then ``.render(data)`` after each ``mj_step``.
@@ -84,7 +90,10 @@ class DepthCamera:
     def __init__(self, model, camera, *, tofjax_camera=None, width: int | None = None, height: int | None = None):
         self.model = model
         self.camera_id = _camera_id(model, camera)
-        if model.cam_projection[self.camera_id] != mujoco.mjtProjection.mjPROJ_PERSPECTIVE:
+        # Orthographic cameras: cam_projection (newer MuJoCo), cam_orthographic (older), none (3.1).
+        flags = [getattr(model, name, None) for name in ("cam_projection", "cam_orthographic")]
+        orthographic = any(f is not None and f[self.camera_id] != 0 for f in flags)
+        if orthographic:
             raise ValueError(f"MuJoCo camera {camera!r} is orthographic: a ToF camera is a perspective one")
         self._override = None
         if tofjax_camera is not None:
@@ -96,7 +105,7 @@ class DepthCamera:
                                  "cast along its own rays with tofjax.renderers.open3d, or render without distortion")
             width, height = intrinsics["width"], intrinsics["height"]
             self._override = intrinsics
-        elif width is None and height is None and model.cam_sensorsize[self.camera_id][1] > 0:
+        elif width is None and height is None and _sensor_size(model, self.camera_id)[1] > 0:
             width, height = (int(x) for x in model.cam_resolution[self.camera_id])
         if width is None or height is None:
             raise ValueError("give width and height (pixels), or tofjax_camera")
@@ -138,10 +147,10 @@ class DepthCamera:
                 c.frustum_center, c.frustum_width, c.frustum_bottom, c.frustum_top = centre, half, bottom, top
             return self._override
         c = cams[0]
-        if c.frustum_width == 0.0:  # a fovy camera: the half width follows the image's aspect (MuJoCo's rule)
+        half = float(getattr(c, "frustum_width", 0.0))
+        if half == 0.0:  # a fovy camera: the half width follows the image's aspect (MuJoCo's rule)
             fy = self.height / (2.0 * math.tan(math.radians(float(self.model.cam_fovy[self.camera_id])) / 2.0))
             return pinhole_intrinsics(self.width, self.height, fy, fy, 0.5 * (self.width - 1), 0.5 * (self.height - 1))
-        half = float(c.frustum_width)
         left, right = float(c.frustum_center) - half, float(c.frustum_center) + half
         return frustum_intrinsics((left, right, float(c.frustum_bottom), float(c.frustum_top), near), self.width,
                                   self.height)
