@@ -23,8 +23,8 @@ from ._executor import programs
 from ._optics import lens
 from ._params import Params, _check, _float, _static
 from ._returns import Returns, direct_returns, two_bounce_returns
-from ._scene import (PixelField, Rays, SceneGeometry, _nonzero, pixel_field, pixel_rays, resolution, surface,
-                     surface_from_depth)
+from ._scene import (PixelField, Rays, SceneGeometry, Surface, _nonzero, pixel_field, pixel_rays, resolution,
+                     surface, surface_from_depth)
 from ._schema import checked_range
 
 
@@ -171,6 +171,15 @@ def _with_interference(params, settings, surf, rays, out: Returns) -> Returns:
 def _scene_returns(params, settings, geometry, sun_direction, bins, shape, distortion):
     rays, surf = _rays_and_surface(params, settings, geometry, sun_direction, shape, distortion)
     return _returns_of(params, settings, geometry, surf, rays, bins)
+
+
+@_jit.jit
+def surface_returns(params: Params, settings: FrameSettings, surf: Surface, rays: Rays) -> Returns:
+    """Every pixel's direct returns from what its rays ``rays`` see, ``surf`` (a renderer's hits:
+    :mod:`tofjax.renderers.open3d`), as :func:`scene_returns` makes them from a scene without
+    patches (the interfering camera's light included)."""
+    out = direct_returns(params.illumination, settings.illumination_falloff_exponent, settings.baseline_m, surf, rays)
+    return _with_interference(params, settings, surf, rays, out)
 
 
 _rays_and_surface_jit = _jit.jit(_rays_and_surface)

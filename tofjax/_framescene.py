@@ -101,15 +101,18 @@ def load_npz_scene(path: str, params, settings, max_bytes: int, option: str = "-
     return tj.Camera(params, settings).returns(depth, reflectivity=rho, radial=key == "radial_m")
 
 
-def check_size(name: str, geometry, settings, shape) -> int:
+def check_size(name: str, geometry, settings, shape, *, mesh: bool = False) -> int:
     """Refuse a frame whose run would not fit this process's memory (before any work, naming the
-    resolution); returns the bytes an NPZ scene's arrays may take."""
+    resolution); returns the bytes an NPZ scene's arrays may take. ``mesh``: ``name`` is a mesh
+    file, cast along every sub-pixel ray (one return each)."""
     from ._limits import available_memory_bytes, frame_memory_bytes, size_text
 
     rows, cols = shape
     s = settings.subpixel_samples
     available = available_memory_bytes()
-    if geometry is None:
+    if mesh:
+        per_pixel, patches = s * s, 0
+    elif geometry is None:
         kind, per_pixel = npz_scene_kind(name)
         s = 1 if kind == "depth" else s
         patches = 0

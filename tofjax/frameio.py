@@ -270,10 +270,12 @@ def write_maps(directory, arrays: dict[str, np.ndarray]) -> list[Path]:
 
 def distance_error_m(arrays: dict[str, np.ndarray]) -> np.ndarray:
     """Measured minus true radial distance, wrapped to [-d_u/2, d_u/2) (a distance beyond the
-    unambiguity range d_u reads d_u short: aliasing, not error)."""
+    unambiguity range d_u reads d_u short: aliasing, not error); NaN where there is no truth (the
+    centre ray meets nothing: a mesh in empty space) or no measurement."""
     du = float(arrays["unambiguity_range_m"])
-    diff = arrays["radial_m"] - arrays["radial_true_m"]
-    return diff - du * np.floor(diff / du + 0.5)
+    with np.errstate(invalid="ignore"):
+        diff = arrays["radial_m"] - arrays["radial_true_m"]
+        return np.where(np.isfinite(diff), diff - du * np.floor(diff / du + 0.5), np.nan)
 
 
 def headlines(arrays: dict[str, np.ndarray]) -> dict[str, float]:

@@ -23,11 +23,21 @@ def register(subparsers) -> None:
                     "noise image beside them. --scene is a built-in scene, NAME or NAME:key=value,... "
                     "(wall, tilted_plane, step_edge, box_on_floor, sphere, corner), or an NPZ file: a depth map "
                     "(z_m or radial_m, optional reflectivity) or returns (path_m, radiance_per_w: the output "
-                    "of a transient renderer, docs/model.md). The operating point is the configuration's "
+                    "of a transient renderer, docs/model.md); or --mesh, a triangle mesh cast with Open3D. The "
+                    "operating point is the configuration's "
                     "scene.illuminance_lx and scene.integration_time_s; [frame] sets the array's optics and "
                     "fixed pattern.")
-    p.add_argument("--scene", required=True, help="NAME[:key=value,...] or FILE.npz (default parameters: "
-                                                  "tofjax.scenes)")
+    what = p.add_mutually_exclusive_group(required=True)
+    what.add_argument("--scene", help="NAME[:key=value,...] or FILE.npz (default parameters: tofjax.scenes)")
+    what.add_argument("--mesh", type=Path, metavar="FILE",
+                      help="a triangle mesh (.obj, .ply, .stl, .off, .gltf, .glb) in the camera's frame (x right, y "
+                           "up, z along the optical axis, m), cast along every sub-pixel ray with Open3D (pip install "
+                           '"tofjax[open3d]"; docs/renderers.md)')
+    p.add_argument("--mesh-pose", type=_pose, metavar="X,Y,Z,RX,RY,RZ",
+                   help="where --mesh goes: turned by RX, then RY, then RZ degrees about the camera's x, y and z axes, "
+                        "then moved by X,Y,Z m (default 0,0,0,0,0,0; a negative X needs the form --mesh-pose=-1,0,2,0,0,0)")
+    p.add_argument("--reflectivity", type=_reflectivity, metavar="R",
+                   help="--mesh's Lambertian reflectivity, 0 to 1 (default: the configuration's scene.reflectivity)")
     p.add_argument("--config", type=Path, help="TOML configuration (default: built-in defaults)")
     p.add_argument("--frames", type=_frame_count, default=100,
                    help=f"Monte Carlo frames (default 100; at most {_max_frames():.0e}, as pixel.iterations)")
@@ -96,11 +106,58 @@ def _direction(text: str):
     return tuple(values)
 
 
+def _numbers(text: str, count: int, what: str) -> tuple[float, ...]:
+    import argparse
+
+    try:
+        values = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != count or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"{text!r} is not {what}")
+    return values
+
+
+def _pose(text: str) -> tuple[float, ...]:
+    return _numbers(text, 6, "six comma-separated finite numbers X,Y,Z (m),RX,RY,RZ (degrees)")
+
+
+def _reflectivity(text: str) -> float:
+    import argparse
+
+    (value,) = _numbers(text, 1, "a number")
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"{value:g} is out of range: allowed 0 <= value <= 1")
+    return value
+
+
+def _mesh_renderer():
+    """:mod:`tofjax.renderers.open3d`, or the one line that says what is missing (exit 2)."""
+    from .cli import CommandError
+    from .renderers import MissingExtra
+
+    try:
+        from .renderers import open3d
+    except MissingExtra as err:
+        raise CommandError(f"--mesh: {err}", 2) from None
+    return open3d
+
+
 def run(args) -> int:
     from .cli import check_output_dir, on_interrupt, output_dir, untouched_note
     from .progress import Progress, Stages, compiling, reporting
 
-    builder, name, kwargs = parse_scene(args.scene)  # before JAX starts
+    mesh = args.mesh
+    if mesh is None and (args.mesh_pose is not None or args.reflectivity is not None):
+        raise ValueError("--mesh-pose and --reflectivity place and colour --mesh: a --scene sets its own")
+    if mesh is not None:  # before JAX starts: the file, then Open3D
+        if not mesh.is_file():
+            raise ValueError(f"--mesh {mesh}: no such file")
+        renderer = _mesh_renderer()
+        vertices, triangles = renderer.read_mesh(mesh)
+        builder, name, kwargs = None, str(mesh), {}
+    else:
+        builder, name, kwargs = parse_scene(args.scene)
     if args.keep_frames > args.frames:
         raise ValueError(f"--keep-frames = {args.keep_frames} is out of range: allowed 0 <= value <= --frames = "
                          f"{args.frames}")
@@ -128,13 +185,13 @@ def run(args) -> int:
 
     timing = summary_lines(tj.Camera.from_config(config))  # refuses an impossible frame rate before any work
     geometry = builder(**kwargs) if builder is not None else None
-    npz_bytes = check_size(name, geometry, settings, (rows, cols))
+    npz_bytes = check_size(name, geometry, settings, (rows, cols), mesh=mesh is not None)
     most = max_keep_frames(rows * cols, params.pixel.n_phases, args.raw)
     if args.keep_frames > most:
         raise ValueError(f"--keep-frames = {args.keep_frames} is out of range for {rows} x {cols} pixels: allowed 0 <= "
                          f"value <= {most} ({kept_limit_text()}; the statistics use every frame)")
     if args.check:
-        if geometry is None:  # validate what the run would read
+        if geometry is None and mesh is None:  # validate what the run would read
             load_npz_scene(name, params, settings, npz_bytes)
         print(f"plan: {args.frames} frames of {rows} x {cols} pixels ({rows * cols * args.frames * params.pixel.n_phases:.3g}"
               f" phase images) of scene {name}, {settings.subpixel_samples}^2 rays per pixel; into {args.out}")
@@ -142,7 +199,14 @@ def run(args) -> int:
     on_interrupt(untouched_note(args.out))
     t0 = time.perf_counter()
     with Stages("render", enabled=not args.quiet) as stage, compiling(enabled=not args.quiet):
-        if geometry is None:
+        if mesh is not None:
+            stage(f"casting {settings.subpixel_samples}^2 rays per pixel of {rows} x {cols} pixels into {name} "
+                  f"({len(triangles)} triangles, Open3D)")
+            rho = float(params.scene.reflectivity) if args.reflectivity is None else args.reflectivity
+            returns = jax.block_until_ready(renderer.returns(
+                tj.Camera(params, settings), renderer.MeshScene([(vertices, triangles)], poses=[args.mesh_pose]),
+                reflectivity=rho, sun_direction=args.sun))
+        elif geometry is None:
             stage(f"reading {name}")
             returns = load_npz_scene(name, params, settings, npz_bytes)
         else:
@@ -166,7 +230,7 @@ def run(args) -> int:
         if args.raw:
             arrays.update(frameio.raw_arrays(frame, params))
         source = str(args.config) if args.config else "built-in defaults"
-        lines = [f"tofjax {tj.__version__}; configuration: {source}; scene {args.scene}; {rows} x {cols} pixels, "
+        lines = [f"tofjax {tj.__version__}; configuration: {source}; scene {_scene_text(args)}; {rows} x {cols} pixels, "
                  f"{settings.subpixel_samples}^2 rays per pixel, {returns.path_m.shape[-1]} returns per pixel.",
                  f"{args.frames} Monte Carlo frames (seed {args.seed}); fixed pattern: "
                  f"{'drawn from frame.seed = ' + str(settings.seed) if args.fixed_pattern else 'off (the mean pixel)'}.",
@@ -182,3 +246,12 @@ def run(args) -> int:
     print(f"wrote frame.npz, {len(written['pngs'])} PNGs, depth_mm.png and amplitude.png (16-bit), points.ply, "
           f"intrinsics.json and report.html to {args.out}")
     return 0
+
+
+def _scene_text(args) -> str:
+    """The scene as the report names it."""
+    if args.mesh is None:
+        return args.scene
+    pose = ",".join(f"{x:g}" for x in (args.mesh_pose or (0,) * 6))
+    rho = "scene.reflectivity" if args.reflectivity is None else f"{args.reflectivity:g}"
+    return f"mesh {args.mesh} (pose {pose}, reflectivity {rho}; Open3D)"
