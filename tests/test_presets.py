@@ -67,11 +67,15 @@ def test_printed_preset_reads_back_to_the_same_configuration(name, tmp_path, cap
 
 
 def test_preset_values_are_the_datasheets_numbers():
-    k2, ti = preset_config("kinect-v2").params, preset_config("ti-opt8241").params
+    # the OPT8241's data sheet (p. 1), carried by the CDK camera's preset: 0.35 A/W, 45 %, 12 bits, 15 um of 320 x 240
+    k2, ti = preset_config("kinect-v2").params, preset_config("ti-opt8241-cdk").params
     assert (k2.pixel.demodulation_contrast, k2.pixel.photo_responsivity_a_per_w) == (0.67, 0.14)
     assert (ti.pixel.demodulation_contrast, ti.pixel.photo_responsivity_a_per_w) == (0.45, 0.35)
     assert k2.adc.resolution_bits == 10 and ti.adc.resolution_bits == 12
-    assert ti.illumination_waveform.modulation_frequency_hz == 50e6
+    cdk = preset_config("ti-opt8241-cdk")
+    assert cdk.values["camera"]["pixel_pitch_m"] == [15e-6, 15e-6]
+    assert cdk.values["camera"]["optical_area_m"] == pytest.approx([4.8e-3, 3.6e-3])
+    assert cdk.values["scene"]["filter_half_width_m"] == pytest.approx((867e-9 - 830e-9) / 2)
     # the Kinect v2 runs its own mode: 80, 16 and 120 MHz (240 MHz / 3, 15, 2, libfreenect2's decoder), 3 phases
     # each, the unwrapped phases averaged; the 10 um pixel of 512 x 424 (Bamji et al. 2015)
     k2c = preset_config("kinect-v2")
@@ -88,10 +92,16 @@ def test_preset_values_are_the_datasheets_numbers():
     # in the preset; the lens passes the one-to-one check of its distortion over the array
     from tofjax._framegeometry import check_lens, frame_settings, lens
 
-    cdk = preset_config("ti-opt8241-cdk")
     assert float(lens(cdk.params.camera).focal_length_m) == pytest.approx(228.973245816 * 15e-6, rel=2e-3)
     check_lens(cdk.params, frame_settings(cdk.values["frame"]))
-    assert cdk.params.illumination_waveform.modulation_frequency_hz * 2 * 4.0 == pytest.approx(299792458.0)
+    # its default profile, Long Range: the SDK's 40 + 60 MHz (extended range c / (2 x 20 MHz)), 6 quads of 18/64 of
+    # 1 / (30 x 12) s per frequency as 5 phase images of the frequency's 4.6875 ms, 30 fps, 4 lasers of 2.2 W
+    camera = tj.Camera.from_config(cdk)
+    assert camera.frequencies_hz == (40e6, 60e6)
+    assert ti.pixel.n_phases == 5 and cdk.values["scene"]["integration_time_per"] == "frequency"
+    assert cdk.values["scene"]["integration_time_s"] == pytest.approx(6 * 18 / 64 / (30 * 12))
+    assert float(camera.timing.frame_rate_hz) == 30.0 and float(camera.timing.max_frame_rate_hz) > 30.0
+    assert ti.illumination.peak_power_w == pytest.approx(4 * 2.2)
 
 
 def test_the_cameras_on_one_sensor_agree_on_it():

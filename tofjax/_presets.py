@@ -140,7 +140,7 @@ def kind_of(note: str) -> str | None:
 
 
 #: The presets' modules in ``tofjax/_cameras/``, in the order ``tofjax config --preset`` lists them.
-CAMERAS = ("thesis", "kinect_v2", "ti_opt8241", "ti_opt8241_cdk", "basler_blaze_101", "lucid_helios2", "azure_kinect",
+CAMERAS = ("thesis", "kinect_v2", "ti_opt8241_cdk", "basler_blaze_101", "lucid_helios2", "azure_kinect",
            "melexis_mlx75027")
 
 
