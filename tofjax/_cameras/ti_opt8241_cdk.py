@@ -339,4 +339,6 @@ PRESET = Preset(
                  "Voxel/Filter/FlypixFilter.h), and the controller has none"),
         "processing.flying_pixel_neighbours": (1, "derived: not read (processing.flying_pixel_m 0)"),
     },
+    unpublished=("TI states the CDK's performance in its quick-start guide (SBOU156B, section 5, p. 9), which no "
+                 "source reached holds readably (docs/cameras/ti-opt8241-cdk.md): nothing to check it against"),
 )
