@@ -206,3 +206,10 @@ def test_a_sourced_preset_predicts_what_its_camera_delivers(name):
     for row, reason in p.unmet.items():
         assert row in missed, f"{name}: {row} is named as unmet but is met"
         assert reason and "unknown" not in reason.lower(), (row, reason)
+
+
+def test_every_camera_has_its_page():
+    index = (DOCS / "README.md").read_text(encoding="utf-8")
+    for name in PRESETS:
+        if name != "thesis":
+            assert (DOCS / f"{name}.md").is_file() and f"[{name}.md]" in index, name
