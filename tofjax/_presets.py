@@ -130,7 +130,7 @@ def kind_of(note: str) -> str | None:
 
 #: The presets' modules in ``tofjax/_cameras/``, in the order ``tofjax config --preset`` lists them.
 CAMERAS = ("thesis", "kinect_v2", "ti_opt8241", "ti_opt8241_cdk", "sony_imx556", "basler_blaze_101", "azure_kinect",
-           "adi_ad_fxtof1")
+           "adi_ad_fxtof1", "pmd_pico_flexx")
 
 
 def _load() -> dict[str, Preset]:
