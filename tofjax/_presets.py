@@ -140,8 +140,8 @@ def kind_of(note: str) -> str | None:
 
 
 #: The presets' modules in ``tofjax/_cameras/``, in the order ``tofjax config --preset`` lists them.
-CAMERAS = ("thesis", "kinect_v2", "ti_opt8241_cdk", "basler_blaze_101", "lucid_helios2", "azure_kinect",
-           "melexis_mlx75027")
+CAMERAS = ("thesis", "pmd_pico_flexx", "kinect_v2", "azure_kinect", "basler_blaze_101", "lucid_helios2",
+           "ti_opt8241_cdk", "melexis_mlx75027")
 
 
 def _load() -> dict[str, Preset]:
