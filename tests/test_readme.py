@@ -116,6 +116,19 @@ def test_every_readme_block_runs_as_written(tmp_path, monkeypatch, capsys):
     for folder in ("render", "corner", "mine", "comparison", "calibration"):
         assert (tmp_path / folder / ".tofjax-output.json").is_file(), folder
     assert np.load(tmp_path / "render" / "frame.npz")["raw_codes"].shape == (1, 1, 4, 172, 224)  # --raw
+    # The flying-pixel render shows flying (mixed) pixels among good ones; the corner, rendered by a real
+    # camera's preset, delivers depth on its walls (the truth's "mixed" removes none) with the two-bounce
+    # light's bias in its error map: long on the walls, least on the corner line.
+    from tofjax._flags import delivered
+    from tofjax.frameio import distance_error_m
+
+    corner = dict(np.load(tmp_path / "corner" / "frame.npz"))
+    good = delivered(corner["flags"])
+    assert good.mean() > 0.9 and ((corner["flags"] & 16) != 0)[good].mean() > 0.5
+    error = np.where(good, distance_error_m(corner), np.nan)
+    centre_row = error[error.shape[0] // 2]
+    assert np.nanmedian(error) > 0.01  # multipath reads long
+    assert np.nanmin(np.abs(centre_row[len(centre_row) // 2 - 3:len(centre_row) // 2 + 4])) < 0.5 * np.nanmax(centre_row)
     assert sf.read_sweep(tmp_path / "virtual.csv").n_rows == 20
     assert not [p for p in os.listdir(tmp_path) if ".partial-" in p]
     _calibration_as_promised(tmp_path / "calibration", captured)

@@ -561,8 +561,12 @@ def _predict_prepared(chain, sweep, exposed) -> Result:
 def _expected(chain, sweep, charges) -> tuple[Array, Array]:
     """A scene's expected phase noise and amplitude, for its flags: of the analytic frame only these,
     in a program of their own (the whole analytic frame cost a one-frame render a third of its
-    time; with the scene's flags in the same program XLA evaluated the chain twice)."""
-    return _phase_noise(analytic(chain, sweep, moments(chain, sweep, charges, image=True)))
+    time; with the scene's flags in the same program XLA evaluated the chain twice). The camera's
+    spatial processing takes its closed form for a uniform neighbourhood here (``image=False``): the
+    flags' thresholds need the noise's size, not its exact shape across an edge, and the analytic
+    frame's order statistics of a median filter cost a second of a 224 x 172 frame (the noise image,
+    :meth:`PreparedFrame.predict`, takes them)."""
+    return _phase_noise(analytic(chain, sweep, moments(chain, sweep, charges, image=False)))
 
 
 @_jit.jit

@@ -141,7 +141,7 @@ class MultiPreparedCamera(eqx.Module):
         """``frames`` noisy frames of the fused distance (what a stream of changing scenes needs)."""
         check_counts(frames, frames, math.prod(self.shape), self._first.chain.n_phases, names=FRAME_COUNTS)
         _no_raw(raw)
-        return _camera_sample(self, self._first._check(returns), key, frames)
+        return self.prepare(returns).sample(key, frames)
 
     @_jit.method
     def render(self, returns: Returns, key: PRNGKeyArray, frames: int = 1, *, keep_frames: int = 0,
@@ -223,17 +223,17 @@ def _sample_stream(chain, consts, key, frames, shape, stream) -> NoisyFrames:
     return _sample_prepared(chain, consts, key, frames, shape, False, stream)
 
 
-def _sample_charges_stream(chain, exposed, key, frames, shape, stream) -> NoisyFrames:
-    from ._frame import _point_charges
+def _expected_depth_std(frame: MultiPreparedFrame) -> Array:
+    """Each frequency's expected depth noise of a prepared frame (its flags' expected phase noise,
+    :func:`tofjax._frame._expected`): what the fusion weighs the frequencies by."""
+    return frame.frames.quality.expected_phase_std_rad * frame.freq.column(2) / (2.0 * jnp.pi)
 
-    return _sample_prepared(chain, _point_charges(chain, exposed), key, frames, shape, False, stream)
 
-
-def _fuse_frames(per: NoisyFrames, freq: _Frequencies, expected: Result) -> NoisyFrames:
+def _fuse_frames(per: NoisyFrames, freq: _Frequencies, expected_std_m: Array) -> NoisyFrames:
     """Every frequency's noisy frames (a leading axis) fused frame by frame, with the fusion's weights
-    of the expected noise."""
+    of each frequency's expected noise ``expected_std_m``."""
     ndim = per.radial_m.ndim - 1
-    weights = fusion_weights(expected.depth_std_m**2, np.asarray(freq.ranges), freq.fusion)
+    weights = fusion_weights(expected_std_m**2, np.asarray(freq.ranges), freq.fusion)
     valid = jnp.all(per.valid, axis=0)
     phases = 2.0 * jnp.pi * jnp.where(valid[None], per.radial_m, 0.0) / freq.column(ndim)
     fused = unwrap_frequencies(phases, np.asarray(freq.ranges), freq.extended, weights[:, None])
@@ -270,16 +270,6 @@ def _camera_prepare(camera: MultiPreparedCamera, returns: Returns) -> MultiPrepa
 
 
 @_jit.jit
-def _camera_sample(camera: MultiPreparedCamera, returns: Returns, key, frames: int) -> NoisyFrames:
-    shape = camera.shape
-    exposed = jax.vmap(lambda c: c.expose(returns))(camera.cameras)
-    expected = jax.vmap(lambda c: c.predict(returns))(camera.cameras).result
-    per = jax.vmap(lambda ch, e, s: _sample_charges_stream(ch, e, key, frames, shape, s))(
-        camera.cameras.chain, exposed, jnp.arange(len(camera.freq.ranges), dtype=jnp.uint32))
-    return _fuse_frames(per, camera.freq, expected)
-
-
-@_jit.jit
 def _frame_predict(frame: MultiPreparedFrame) -> Result:
     per = jax.vmap(lambda f: f.predict())(frame.frames).result
     return _fused_result(per, frame.freq, fuse_expected(per, frame.freq))
@@ -290,7 +280,7 @@ def _frame_sample(frame: MultiPreparedFrame, key, frames: int) -> NoisyFrames:
     shape = frame.shape
     per = jax.vmap(lambda ch, c, s: _sample_stream(ch, c, key, frames, shape, s))(
         frame.frames.chain, frame.frames.prepared.consts, jnp.arange(len(frame.freq.ranges), dtype=jnp.uint32))
-    return _fuse_frames(per, frame.freq, jax.vmap(lambda f: f.predict())(frame.frames).result)
+    return _fuse_frames(per, frame.freq, _expected_depth_std(frame))
 
 
 def _render_setup(frame: MultiPreparedFrame, key, raw, frames):
@@ -308,8 +298,7 @@ def _render_consts(frame: MultiPreparedFrame, key, raw, frames, carry):
     distance, the fusion's weights (of each frequency's expected noise)."""
     consts = frame.frames.prepared.consts
     ranges = np.asarray(frame.freq.ranges)
-    expected = jax.vmap(lambda f: f.predict())(frame.frames).result
-    weights = fusion_weights(expected.depth_std_m**2, ranges, frame.freq.fusion).reshape(len(ranges), -1)
+    weights = fusion_weights(_expected_depth_std(frame)**2, ranges, frame.freq.fusion).reshape(len(ranges), -1)
     reference = unwrap_frequencies(jnp.mod(consts.ref_phase, 2.0 * jnp.pi), ranges, frame.freq.extended, weights)
     truth = jnp.mod(frame._first.sweep.values.reshape(-1), frame.freq.extended)
     return consts, reference, truth, weights

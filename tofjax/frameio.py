@@ -227,9 +227,10 @@ def map_images(arrays: dict[str, np.ndarray]) -> dict[str, tuple]:
     for name, image in images.items():
         title, unit, cmap = MAPS[name]
         limits = (0, 2 * max(FLAGS) - 1) if name == "flags" else (None, None)
-        if name == "error_mm":
-            finite = np.abs(image[np.isfinite(image)])
-            span = float(np.percentile(finite, 99)) if finite.size else 1.0
+        if name == "error_mm":  # the delivered pixels' errors set the scale (not the few a camera drops)
+            shown = image[np.isfinite(image) & delivered(arrays["flags"])]
+            finite = np.abs(shown if shown.size else image[np.isfinite(image)])
+            span = float(np.percentile(finite, 95)) if finite.size else 1.0  # the rest clip at the ends
             limits = (-span, span) if span > 0 else (-1, 1)
         out[name] = (image, title, unit, cmap, limits)
     return out
