@@ -175,10 +175,15 @@ class Camera(eqx.Module):
         """The frame's timing and the illumination's power over it (``tofjax._timing.FrameTiming``:
         phase images, exposure, frame rate, lit fraction, peak / lit / average power), at the
         parameters' integration time; ``[timing]`` configures it (docs/model.md, "Frame timing and
-        eye safety")."""
-        from ._timing import frame_timing
+        eye safety"). A frame rate its phase images do not fit is a ``ValueError`` naming
+        ``timing.frame_rate_hz`` (as the commands refuse it; under a transformation, where the values
+        are traced, it is not checked)."""
+        from ._timing import check_frame_rate, frame_timing
 
-        return frame_timing(self.params, max(len(self.frequencies_hz), 1))
+        timing = frame_timing(self.params, max(len(self.frequencies_hz), 1))
+        if not _jit.traced(timing):
+            check_frame_rate(timing)
+        return timing
 
     @property
     def eye_safety(self):
