@@ -304,7 +304,7 @@ def _simulate(args) -> int:
     if args.check:
         print(f"plan: {args.sweep} sweep, {plan}; into {out}" + (f" and {args.report}" if args.report else ""))
         return 0
-    enable_compilation_cache()
+    enable_compilation_cache(notice=False)  # the command says it (compiling, below), or --quiet does not
     on_interrupt(untouched_note(out, args.report))
     label = f"simulating {sweep.samples} samples" + (f" x {iterations} frames" if args.method == "mc" else "")
     with reporting(Progress(1, label, unit="chunk", enabled=not args.quiet)), compiling(enabled=not args.quiet):
@@ -407,7 +407,7 @@ def _run(args) -> int:
 
     try:
         if getattr(args, "run", None) is not None:  # calibrate, record, ...: they compute, so cache
-            enable_compilation_cache(fast_compile=args.command == "calibrate")
+            enable_compilation_cache(fast_compile=args.command == "calibrate", notice=False)  # a command says it itself
             return args.run(args)
         if args.command == "config":
             from ._config import default_config_text
