@@ -541,6 +541,18 @@ def test_render_command_writes_every_output(tmp_path, capsys):
     documented = (Path(__file__).parents[1] / "docs" / "model.md").read_text()
     assert [key for key in data.files if f"`{key}`" not in documented] == []
     assert {"radial_m.png", "predicted_std_mm.png", "error_mm.png", "report.html"} <= {p.name for p in out.iterdir()}
+    # flags.png is categorical: good pixels and wrapped ones (the wall at 3 m) in colours of their own
+    # (on the old 0-127 colour scale both were blue), each combination present named in a legend.
+    from matplotlib.colors import to_rgb
+
+    classes = frameio.flag_classes(data["flags"])
+    labels = [label for _, label, _ in classes]
+    assert labels[0].startswith("good (no flag): ") and any(label.startswith("wrapped") for label in labels)
+    shown = {tuple(c) for c in np.asarray(Image.open(out / "flags.png").convert("RGB")).reshape(-1, 3)}
+    colours = [tuple(round(255 * x) for x in to_rgb(colour)) for _, _, colour in classes]
+    assert len(set(colours)) == len(classes) and set(colours) <= shown
+    legend = frameio.frame_figure(dict(data)).legends  # the explorer's Frame tab, as render draws it
+    assert [t.get_text() for t in legend[0].get_texts()] == labels
     report = (out / "report.html").read_text()
     assert "data:image/png;base64" in report and "frame: 4 phase images of 2 ms" in report
 
