@@ -272,10 +272,10 @@ def test_a_flat_wall_falls_off_as_profile_times_cos4_times_incidence(params):
     n = 2.5
     p = eqx.tree_at(lambda q: q.illumination.fov_deg, params, jnp.asarray(20.0))
     s = tj.FrameSettings(subpixel_samples=1, illumination_falloff_exponent=n)
-    frame = tj.predict(tj.Camera(p, s), scenes.wall(2.0, 0.9))
+    frame = tj.predict(tj.Camera(p, s), scenes.wall(1.5, 0.9))  # within the unambiguity range: good pixels
     signal = np.asarray(frame.result.noise.signal_e)
     flat = tj.FrameSettings(subpixel_samples=1)
-    axis = float(tj.predict(tj.Camera(p, flat), scenes.wall(2.0, 0.9)).result.noise.signal_e[CENTRE])
+    axis = float(tj.predict(tj.Camera(p, flat), scenes.wall(1.5, 0.9)).result.noise.signal_e[CENTRE])
     cos_phi = np.asarray(frame.direction)[..., 2]
     t = np.tan(np.deg2rad(10.0))
     s_n = np.pi * ((1 + t * t) ** (1 - n / 2) - 1) / (1 - n / 2)
@@ -645,18 +645,24 @@ def test_every_flag_on_a_scene_built_to_trigger_it(params, one_ray):
     both = np.ptp(paths, axis=-1) > 0.5
     np.testing.assert_array_equal(np.unique(np.nonzero(both)[1]), columns)
     # No return: a wall of reflectivity 0 (no light comes back), and a sphere's surroundings (no surface).
-    _, flags = _flags(params, one_ray, scenes.wall(1.0, 0.0))
+    # A frame without a good pixel says so, and why (it had read plausible numbers in silence).
+    with pytest.warns(tj.schema.NoGoodPixelsWarning, match=r"^no good pixel: every pixel is flagged \(100.0 % low "
+                      r"signal, 100.0 % no return\); the pixels see no surface the illumination lights$"):
+        _, flags = _flags(params, one_ray, scenes.wall(1.0, 0.0))
     assert np.all(flags & FLAG_NO_RETURN) and np.all(flags & FLAG_LOW_SIGNAL)  # and no signal: low signal too
     frame, flags = _flags(params, one_ray, scenes.sphere(1.2, 0.1, 0.9))
     np.testing.assert_array_equal((flags & FLAG_NO_RETURN) != 0, ~np.isfinite(np.asarray(frame.radial_true_m)))
     # Outside the illumination: an illumination cone of 20 degrees (diagonal) in a camera of 75.
     narrow = eqx.tree_at(lambda p: p.illumination.fov_deg, params, jnp.asarray(20.0))
-    frame, flags = _flags(narrow, one_ray, scenes.wall(1.0))
+    with pytest.warns(tj.schema.NoGoodPixelsWarning):  # the lit pixels saturate: none is good
+        frame, flags = _flags(narrow, one_ray, scenes.wall(1.0))
     angle = np.degrees(np.arccos(np.asarray(frame.direction)[..., 2]))
     np.testing.assert_array_equal((flags & FLAG_OUTSIDE_ILLUMINATION) != 0, angle > 10.0)
     assert np.all(flags[angle > 10.0] & FLAG_NO_RETURN)  # no light comes back from there either
     # Saturated: a wall at 5 cm; low signal and low amplitude from the expected (analytic) values.
-    _, flags = _flags(params, one_ray, scenes.wall(0.05))
+    with pytest.warns(tj.schema.NoGoodPixelsWarning, match=r"\(100.0 % saturated, 100.0 % low signal\); the scene "
+                                                           r"is too close or too bright"):
+        _, flags = _flags(params, one_ray, scenes.wall(0.05))
     assert np.all(flags & FLAG_SATURATED)
     frame, flags = _flags(params, one_ray, scenes.wall(1.5, 0.1))  # a dark wall: the noisy corners flagged
     phase = np.asarray(frame.quality.expected_phase_std_rad)
@@ -672,5 +678,6 @@ def test_every_flag_on_a_scene_built_to_trigger_it(params, one_ray):
 def test_monte_carlo_low_signal_comes_from_the_expected_noise_not_two_frames(params, one_ray):
     """Two frames of a black wall agree by chance in some pixels: they are flagged all the same."""
     returns = tj.Camera(params, one_ray).returns(scenes.wall(1.0, 0.0))
-    frame = tj.simulate(tj.Camera(params, one_ray), returns, jax.random.key(3), 2)
+    with pytest.warns(tj.schema.NoGoodPixelsWarning, match="^no good pixel: every pixel is flagged"):
+        frame = tj.simulate(tj.Camera(params, one_ray), returns, jax.random.key(3), 2)
     assert np.all(np.asarray(frame.flags) & FLAG_LOW_SIGNAL) and np.all(np.asarray(frame.flags) & FLAG_NO_RETURN)

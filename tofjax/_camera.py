@@ -246,7 +246,7 @@ def predict(camera, scene, *, smooth: Smooth | None = None, pattern: PixelPatter
             return predict_multifrequency(camera.params, scene, camera.frequencies_hz, fusion=camera.fusion,
                                           smooth=camera.smooth)
         return predict_sweep(camera.params, scene, smooth=camera.smooth, pattern=camera.pattern)
-    return camera.prepare().predict(camera.returns(scene))
+    return _said_if_no_good_pixels(camera.prepare().predict(camera.returns(scene)))
 
 
 def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frames: int = 0, raw: bool = False,
@@ -293,7 +293,27 @@ def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frame
                                            keep_frames=keep_frames, progress=progress, fusion=camera.fusion, raw=raw)
         return simulate_sweep(camera.params, scene, key, frames, smooth=camera.smooth, pattern=camera.pattern,
                               keep_frames=keep_frames, raw=raw, progress=progress)
-    return camera.expose(scene).render(key, frames, keep_frames=keep_frames, raw=raw, progress=progress)
+    return _said_if_no_good_pixels(camera.expose(scene).render(key, frames, keep_frames=keep_frames, raw=raw,
+                                                               progress=progress))
+
+
+def _said_if_no_good_pixels(frame):
+    """``frame`` (a :class:`tofjax.FrameResult`), with a :class:`tofjax.schema.NoGoodPixelsWarning`
+    when none of its pixels is good: an all-flagged frame (a wall beyond the unambiguity range) reads
+    plausible distances and gives an empty point cloud, and nothing else would say so. Concrete
+    values only (under a transformation the flags are traced)."""
+    if _jit.traced(frame):
+        return frame
+    flags = np.asarray(frame.flags)
+    if flags.size and not np.any(flags == 0):
+        import warnings
+
+        from ._flags import FLAGS, NoGoodPixelsWarning, no_good_pixels_line
+
+        fractions = {bit: float(np.mean((flags & bit) != 0)) for bit in FLAGS}
+        warnings.warn(no_good_pixels_line(fractions, float(frame.result.unambiguity_range_m)), NoGoodPixelsWarning,
+                      stacklevel=3)
+    return frame
 
 
 def _camera(camera, smooth, pattern) -> Camera:

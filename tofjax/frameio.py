@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._flags import FLAG_KEYS, FLAGS
+from ._flags import FLAG_KEYS, FLAGS, no_good_pixels_line
 from .outputs import save_figure, write_bytes, write_text
 from .outputs import write_npz as write_npz_file
 
@@ -330,12 +330,14 @@ def distance_error_m(arrays: dict[str, np.ndarray]) -> np.ndarray:
 
 
 def headlines(arrays: dict[str, np.ndarray]) -> dict[str, float]:
-    """Frame-level numbers: pixels, flagged fractions, median noise, median error (good pixels)."""
+    """Frame-level numbers: pixels, flagged fractions, the unambiguity range, median noise, median error
+    (good pixels)."""
     flags = arrays["flags"]
     good = flags == 0
     err = distance_error_m(arrays)[good]
     out = {
         "pixels": float(flags.size), "good_fraction": float(np.mean(good)),
+        "unambiguity_range_m": float(arrays["unambiguity_range_m"]),
         **{f"{FLAG_KEYS[bit]}_fraction": float(np.mean((flags & bit) != 0)) for bit in FLAGS},
         "median_depth_std_mm": float(1e3 * np.nanmedian(arrays["depth_std_m"][good])) if good.any() else float("nan"),
         "median_abs_error_mm": float(1e3 * np.nanmedian(np.abs(err))) if err.size else float("nan"),
@@ -355,13 +357,17 @@ def headline_text(numbers: dict, monte_carlo: bool = True) -> str:
     """The frame's headline numbers (:func:`headlines`) in words, of the good (unflagged) pixels: their
     share, and the flags that took the others; median noise, the median of the per-pixel ratio of
     analytic to Monte Carlo noise (the agreement; the ratio of the two medians is not), median
-    |error|. ``monte_carlo``: whether the noise is the frames' (else the analytic frame's alone)."""
+    |error|. ``monte_carlo``: whether the noise is the frames' (else the analytic frame's alone). A
+    frame without a good pixel is one line that says so and why (:func:`tofjax._flags.no_good_pixels_line`)."""
     import math
 
     def num(key, fmt):
         x = numbers.get(key, math.nan)
         return "-" if not math.isfinite(x) else format(x, fmt)
 
+    if not numbers["good_fraction"] > 0:  # one line that says so, not a table of "-"
+        return no_good_pixels_line({bit: numbers[f"{name}_fraction"] for bit, name in FLAG_KEYS.items()},
+                                   numbers.get("unambiguity_range_m"))
     flagged = [f"{100 * numbers[f'{name}_fraction']:.1f} % {name.replace('_', ' ')}" for name in FLAG_KEYS.values()
                if numbers[f"{name}_fraction"] > 0]
     noise = (f"median depth noise {num('median_depth_std_mm', '.3g')} mm (Monte Carlo), analytic / Monte Carlo "
@@ -377,6 +383,8 @@ def write_report(directory, arrays: dict[str, np.ndarray], pngs: list[Path], tit
     from .report import Figure, Section, Summary, Table
 
     numbers = headlines(arrays)
+    if not numbers["good_fraction"] > 0:
+        lines = [*lines, headline_text(numbers)]
     summary = Summary(title, list(lines), [
         Section("Headline numbers", [Table(("number", "value"), tuple((k, f"{v:.4g}") for k, v in numbers.items()))]),
         Section("Images", [Figure(p.name, p.read_bytes()) for p in pngs]),

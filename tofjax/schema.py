@@ -16,7 +16,8 @@ explorer share, and the dotted-name access to parameter leaves.
   :func:`preset_text` (a camera preset's sourced configuration; the presets: :data:`tofjax.PRESETS`);
 - the bit tables written into results and files: :data:`CAVEATS` (``Result.caveats``; the bits
   :data:`CAVEAT_NEAR_LIMIT`, :data:`CAVEAT_COARSE_QUANTIZATION`, :data:`CAVEAT_LOW_SNR`) and
-  :data:`FLAGS` (``FrameResult.flags``).
+  :data:`FLAGS` (``FrameResult.flags``), and :class:`NoGoodPixelsWarning` (a frame none of whose
+  pixels is good).
 """
 
 from typing import TYPE_CHECKING
@@ -28,7 +29,7 @@ from ._schema import (
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from ._config import default_config_text, read_toml, render_toml
     from ._leaves import float_leaf_names, get_leaf, set_leaves
-    from ._flags import FLAGS
+    from ._flags import FLAGS, NoGoodPixelsWarning
     from ._presets import Preset, preset_text
     from ._result import CAVEAT_COARSE_QUANTIZATION, CAVEAT_LOW_SNR, CAVEAT_NEAR_LIMIT, CAVEATS
 
@@ -37,7 +38,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
 _LAZY = {"read_toml": "._config", "render_toml": "._config", "float_leaf_names": "._leaves", "get_leaf": "._leaves",
          "set_leaves": "._leaves", "default_config_text": "._config", "Preset": "._presets", "preset_text": "._presets",
          "CAVEATS": "._result", "CAVEAT_NEAR_LIMIT": "._result", "CAVEAT_COARSE_QUANTIZATION": "._result",
-         "CAVEAT_LOW_SNR": "._result", "FLAGS": "._flags"}
+         "CAVEAT_LOW_SNR": "._result", "FLAGS": "._flags", "NoGoodPixelsWarning": "._flags"}
 
 
 def __getattr__(name: str):
@@ -52,4 +53,4 @@ __all__ = ["KEYS", "KEY_BY_DOTTED", "OPERATING_POINT_COLUMNS", "SECTIONS", "SWEE
            "ConfigError", "Key", "coerce", "float_leaf_names",
            "get_leaf", "in_range", "keys_of", "read_toml", "render_toml", "set_leaves", "suggest",
            "default_config_text", "Preset", "preset_text", "CAVEATS", "CAVEAT_NEAR_LIMIT", "CAVEAT_COARSE_QUANTIZATION",
-           "CAVEAT_LOW_SNR", "FLAGS"]
+           "CAVEAT_LOW_SNR", "FLAGS", "NoGoodPixelsWarning"]
