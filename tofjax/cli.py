@@ -230,7 +230,7 @@ def _summary(result, elapsed_s: float, out: Path, timing: list[str]) -> str:
     lines = [f"{len(values)} samples ({method}); unambiguity range {float(result.unambiguity_range_m):.4f} m; "
              f"{elapsed_s:.2f} s; wrote {out}"]
     lines.extend(timing)
-    lines.extend(f"note: {line}" for line in result.caveat_summary())
+    lines.extend(f"note: {line}" for line in result.caveat_lines())
     du = float(result.unambiguity_range_m)
     spacing = float(np.max(np.abs(np.diff(dist)))) if len(dist) > 1 else 0.0
     if result.sweep_variable == "distance" and spacing > du / 2:

@@ -283,7 +283,7 @@ def write_report(directory, config, result, elapsed_s: float, csv_path, multifre
     ]
     if multifrequency is not None:
         rows.append(("extended range (multi-frequency)", _fmt(float(multifrequency.extended_range_m), "m")))
-    for line in result.caveat_summary():
+    for line in result.caveat_lines():
         rows.append(("analytic path caveat", line))
     rows.append(("run time", f"{elapsed_s:.2f} s ({result.method}, {len(np.asarray(result.sweep_values))} samples"
                              + (f" x {result.n_frames} frames)" if result.n_frames else ")")))
