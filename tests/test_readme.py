@@ -142,6 +142,14 @@ def _calibration_as_promised(out: Path, captured) -> None:
 
     printed = captured.out
     assert printed.index("least squares: converged") < printed.index("posterior: 32 walkers x 2000 steps")
+    # A unitless value prints no unit (it printed "8.39e-05 1"); where the posterior's 68 % interval
+    # excludes the least-squares estimate (the dark slope: 2.51 against [1.11, 2.42]) a note says
+    # why, where the numbers are, and which to quote.
+    assert re.search(r"^  pixel\.demodulation_contrast += [0-9.]+ \+- [0-9.e-]+$", printed, re.M), printed
+    notes = [line for line in printed.splitlines() if line.startswith("note: pixel.dark_slope_mean_v_per_s: the "
+                                                                      "least-squares estimate")]
+    assert len(notes) == 1 and "outside the posterior's 68 % interval" in notes[0]
+    assert "normalisation -sum log sigma_i" in notes[0] and "Quote the posterior: median" in notes[0]
     assert "\r" not in captured.err and "posterior: 100 % (2000/2000 steps)" in captured.err
     assert f"writing the results, figures and report into {out.name} ..." in captured.err
     names = {p.name for p in out.iterdir()}
