@@ -221,9 +221,11 @@ def _summary(result, elapsed_s: float, out: Path, timing: list[str]) -> str:
     def cell(x, fmt):
         return "-" if np.isnan(float(x)) else format(float(x), fmt)
 
-    table = Table((f"{axis.name} [{axis.display_unit}]", "unwrapped [m]", "depth std [mm]", "rel. std [%]",
+    # The swept quantity in the unit --from and --to take (seconds, not the plots' milliseconds).
+    unit = axis.display_unit if axis.display_scale == 1.0 else axis.unit
+    table = Table((f"{axis.name} [{unit}]", "unwrapped [m]", "depth std [mm]", "rel. std [%]",
                    "amplitude [LSB]", "valid [%]"), tuple(
-        (format(values[i] * axis.display_scale, ".4g"), cell(result.depth_unwrapped_mean_m[i], ".4f"),
+        (format(values[i], ".4g"), cell(result.depth_unwrapped_mean_m[i], ".4f"),
          cell(1e3 * result.depth_std_m[i], ".3f"), cell(100 * result.depth_std_m[i] / dist[i], ".3f"),
          cell(result.amplitude_mean_lsb[i], ".1f"), cell(100 * result.valid_fraction[i], ".1f")) for i in rows))
     method = f"Monte Carlo, {result.n_frames} frames/sample" if result.method == "mc" else "analytic"
@@ -392,7 +394,11 @@ def interrupts():
 
 def main(argv: list[str] | None = None) -> int:
     on_interrupt(None)
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    if not (sys.argv[1:] if argv is None else argv):  # `tofjax` alone: what it can do, not an error
+        parser.print_help()
+        return 0
+    args = parser.parse_args(argv)
     from .progress import clear_interrupt
 
     clear_interrupt()
