@@ -228,6 +228,11 @@ def test_public_api_under_jit_vmap_grad():
         return tj.predict(sine, tj.Sweep("distance", d[None])).depth_std_m[0]
 
     assert float(jax.grad(distance_grad)(jnp.asarray(2.0))) > 0  # noise grows with distance
+    # A saturated point in the hard mode: NaN, and a gradient of 0, not NaN; tj.predict says so and
+    # points to the smooth mode (an optimiser had no warning).
+    assert np.isnan(distance_grad(jnp.asarray(0.05))) and float(jax.grad(distance_grad)(jnp.asarray(0.05))) == 0.0
+    assert "their gradient is 0, not NaN" in " ".join(tj.predict.__doc__.split())
+    assert "smooth=tj.Smooth()" in tj.predict.__doc__
 
 
 def test_new_parameter_values_do_not_recompile():

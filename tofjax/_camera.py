@@ -225,12 +225,19 @@ def predict(camera, scene, *, smooth: Smooth | None = None, pattern: PixelPatter
     ``camera`` may be a :class:`tofjax.Params` for a sweep (module docstring):
     ``predict(params, sweep, smooth=..., pattern=...)``.
 
+    **Gradients.** In the hard mode (no ``camera.smooth``) a point where the pixel or the ADC
+    saturates has NaN statistics (``depth_std_m``, ...) and their gradient is 0, not NaN: an
+    optimiser that skips NaN values (``jnp.nansum``) gets no warning that it left the camera's range.
+    Differentiate a camera with ``smooth=tj.Smooth()``, whose values and gradients are finite
+    everywhere (docs/model.md, "Smooth relaxation"), or hold the points valid
+    (``Result.valid_fraction``, ``full_well_fraction``).
+
     Example::
 
         camera = tj.Camera(tj.Params())
         r = tj.predict(camera, tj.Sweep.linspace("distance", 0.5, 5.0, 10))
         r.depth_std_m                                  # (10,) m
-        tj.predict(camera, scenes.wall(2.0)).depth_std_m   # (rows, cols) m: a frame
+        tj.predict(camera, scenes.wall(1.2)).depth_std_m   # (rows, cols) m: a frame (within 1.87 m)
     """
     from ._analytic import predict as predict_sweep
 
