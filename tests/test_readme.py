@@ -39,6 +39,23 @@ def test_ci_runs_exactly_the_readme_test_command():
     assert "--durations=10" in (ROOT / "pyproject.toml").read_text()
 
 
+def test_readme_cites_the_thesis_explains_its_terms_and_names_the_extras():
+    """A first reader meets "Table 4.9", "§5.5.1", SBI, LSB, PMD, kTC and LTS: the README gives the
+    thesis' full reference and links a glossary that explains each; recording's USB packages come with
+    the record extra, not with tofjax (the README said they did)."""
+    readme = (ROOT / "README.md").read_text()
+    flat = " ".join(readme.replace("> ", "").split())
+    assert ('Matthias Almer, "Time-of-Flight 3D-Camera Performance Modeling", master\'s thesis, Institute for '
+            "Technical Informatics, Graz University of Technology") in flat
+    assert "[glossary](docs/model.md#glossary)" in readme
+    model = (ROOT / "docs" / "model.md").read_text()
+    glossary = model.split("\n## Glossary\n", 1)[1].split("\n## ", 1)[0]
+    for term in ("SBI", "LSB", "PMD", "kTC", "LTS"):
+        assert f"**{term}" in glossary, term
+    assert "come with tofjax" not in readme
+    assert 'the `record` extra, `pip install ".[record]"` (pyusb, pyftdi and thorlabs-apt-protocol' in flat
+
+
 def test_readme_main_job_runs_on_defaults(tmp_path, monkeypatch, capsys):
     main_command, _ = _readme_commands()
     install, job = main_command.split(" && ")
