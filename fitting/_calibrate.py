@@ -574,6 +574,7 @@ def _report(cal: Calibration, figures: list[Path], comparisons=()) -> Summary:
              f"max |r| {r['max_abs']:.2f}" for r in ls.residual_summary]]
     report.sections.append(Section("Least squares (Levenberg-Marquardt)", fit))
     if post is not None:
+        notes = posterior_notes(cal)
         report.sections.append(Section("Posterior (emcee)", [
             f"{post.walkers} walkers x {post.steps} steps, burn-in {post.burn_in}, thin {post.thin}, "
             f"{len(post.samples)} samples; acceptance {post.acceptance_fraction:.2f}",
@@ -581,7 +582,7 @@ def _report(cal: Calibration, figures: list[Path], comparisons=()) -> Summary:
                 (n, f"{m:.6g}", f"{lo:.6g}", f"{hi:.6g}", f"{t:.1f}")
                 for n, m, lo, hi, t in zip(post.names, post.median, post.p16, post.p84, post.autocorr_time, strict=True))),
             *([[f"warning: {w}" for w in post.warnings]] if post.warnings else []),
-            *([[f"note: {n}" for n in posterior_notes(cal)]] if posterior_notes(cal) else [])]))
+            *([[f"note: {n}" for n in notes]] if notes else [])]))
     if comparisons:
         rows = []
         for before, after in comparisons:
