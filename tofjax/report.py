@@ -224,13 +224,14 @@ def headlines(params, result) -> dict:
     return out
 
 
-#: The analytic scans behind the headline figures a run's sweep does not cover (:func:`headlines`).
-SCANS = {"distance": "analytic scan over 0.05-50 m at the nominal illuminance and integration time",
-         "illuminance": "analytic scan over 0-200 klx at the nominal distance and integration time"}
-#: Headline figure -> the sweep axis it lies on (what :func:`sweep_figures` takes from a sweep of it).
-FIGURE_AXES = {"valid_from_m": "distance", "relative_noise_1pct_at_m": "distance",
-               "relative_noise_2pct_at_m": "distance", "sbi_engages_at_lx": "illuminance",
-               "pixel_saturates_at_lx": "illuminance"}
+_DISTANCE_SCAN = "analytic scan over 0.05-50 m at the nominal illuminance and integration time"
+_ILLUMINANCE_SCAN = "analytic scan over 0-200 klx at the nominal distance and integration time"
+#: Headline figure -> (the sweep axis it lies on, the analytic scan behind it where the run's sweep
+#: does not cover it): what :func:`sweep_figures` takes from a sweep of that axis.
+FIGURE_AXES = {"valid_from_m": ("distance", _DISTANCE_SCAN), "relative_noise_1pct_at_m": ("distance", _DISTANCE_SCAN),
+               "relative_noise_2pct_at_m": ("distance", _DISTANCE_SCAN),
+               "sbi_engages_at_lx": ("illuminance", _ILLUMINANCE_SCAN),
+               "pixel_saturates_at_lx": ("illuminance", _ILLUMINANCE_SCAN)}
 
 
 def sweep_figures(result, sbi: bool = True) -> dict[str, tuple[float | None, str]]:
@@ -264,20 +265,20 @@ def headline_figure(h: dict, key: str, unit: str, digits: int = 4) -> tuple[str,
     """One headline figure of :func:`headlines` as ``(value, where it comes from)``: from the run's
     sweep where it covers the figure (its first sample where it holds; "at or below" the sweep's
     start where it holds from there; "beyond the sweep" where no sample reaches it, with the
-    analytic scan's value beside), else from the analytic scan (:data:`SCANS`)."""
+    analytic scan's value beside), else from the analytic scan (:data:`FIGURE_AXES`)."""
     if key == "sbi_engages_at_lx" and not h.get("sbi", True):
         return "SBI disabled", "the configuration"
     scan = _fmt(h[key], unit, digits=digits)
-    axis = FIGURE_AXES[key]
+    axis, source = FIGURE_AXES[key]
     if key not in h.get("from_sweep", {}):
-        return scan, SCANS[axis]
+        return scan, source
     value, how = h["from_sweep"][key]
     sweep = h["sweep"]
     method = "Monte Carlo" if sweep["method"] == "mc" else "analytic"
     span = f"{sweep['from']:.4g}-{sweep['to']:.4g} {unit}"
     if how == "at":
         return _fmt(value, unit, digits=digits), f"this {axis} sweep ({method}): its first sample where it holds"
-    scan_note = f"; the {SCANS[axis]} puts it at {scan}"
+    scan_note = f"; the {source} puts it at {scan}"
     if how == "start":
         return (f"at or below {_fmt(value, unit, digits=digits)}",
                 f"this {axis} sweep ({method}): it holds from its first sample{scan_note}")
