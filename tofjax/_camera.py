@@ -315,11 +315,10 @@ def _said_if_no_good_pixels(frame):
     if flags.size and not np.any(flags == 0):
         import warnings
 
-        from ._flags import FLAGS, NoGoodPixelsWarning, no_good_pixels_line
+        from ._flags import NoGoodPixelsWarning, flag_fractions, no_good_pixels_line
 
-        fractions = {bit: float(np.mean((flags & bit) != 0)) for bit in FLAGS}
-        warnings.warn(no_good_pixels_line(fractions, float(frame.result.unambiguity_range_m)), NoGoodPixelsWarning,
-                      stacklevel=3)
+        warnings.warn(no_good_pixels_line(flag_fractions(flags), float(frame.result.unambiguity_range_m)),
+                      NoGoodPixelsWarning, stacklevel=3)
     return frame
 
 

@@ -328,8 +328,9 @@ def summary(run, numbers: dict) -> Summary:
         ranges = f"unambiguity range {float(r.unambiguity_range_m):.4g} m"
     lines = [f"{len(valid)} samples ({kind}); {noise}; {np.mean(valid == 1):.0%} of the samples fully valid; "
              f"{ranges}"]
-    n = numbers
     from .report import headline_figure
+
+    n = numbers
 
     def at(key, unit):  # the figure and where it comes from (this sweep, or an analytic scan)
         value, source = headline_figure(n, key, unit, digits=3)

@@ -59,10 +59,18 @@ class NoGoodPixelsWarning(UserWarning):
     :func:`tofjax.simulate` warn so when they make such a frame (:func:`no_good_pixels_line` says why)."""
 
 
+def flag_fractions(flags) -> dict[int, float]:
+    """Each bit of :data:`FLAGS` -> the share of the pixels of ``flags`` (an integer array) that carry it."""
+    import numpy as np
+
+    flags = np.asarray(flags)
+    return {bit: float(np.mean((flags & bit) != 0)) for bit in FLAGS}
+
+
 def no_good_pixels_line(fractions: dict[int, float], unambiguity_range_m: float | None = None) -> str:
     """One line saying that no pixel of a frame is good: the share of each flag that occurs
-    (``fractions``: bit -> share of the pixels) and, for the flag most pixels carry, why and what to
-    change (``unambiguity_range_m``: named for the wrapped flag)."""
+    (``fractions``: bit -> share of the pixels, :func:`flag_fractions`) and, for the flag most pixels
+    carry, why and what to change (``unambiguity_range_m``: named for the wrapped flag)."""
     present = {bit: share for bit, share in fractions.items() if share > 0}
     shares = ", ".join(f"{100 * share:.1f} % {FLAG_KEYS[bit].replace('_', ' ')}" for bit, share in present.items())
     if not present:

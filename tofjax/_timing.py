@@ -25,8 +25,8 @@ source (measurement condition 3), time base 100 s:
 The aperture collects the largest share of the beam it can (:func:`aperture_fraction`): the beam's
 radiant intensity integrated over the aperture's cone, placed where it collects most (the thesis'
 flat spot is brightest at its rim, cos^-3: just inside it), at most the whole beam (a beam narrower
-than the aperture's cone). Not modelled: an extended apparent source (C6 > 1), single-fault conditions, several emitters, and
-wavelengths outside 700-1050 nm (reported as not estimated).
+than the aperture's cone). Not modelled: an extended apparent source (C6 > 1), single-fault
+conditions, several emitters, and wavelengths outside 700-1050 nm (reported as not estimated).
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._flags import FLAG_KEYS, FLAGS, no_good_pixels_line
+from ._flags import FLAG_KEYS, FLAGS, flag_fractions, no_good_pixels_line
 from .outputs import save_figure, write_bytes, write_text
 from .outputs import write_npz as write_npz_file
 
@@ -338,7 +338,7 @@ def headlines(arrays: dict[str, np.ndarray]) -> dict[str, float]:
     out = {
         "pixels": float(flags.size), "good_fraction": float(np.mean(good)),
         "unambiguity_range_m": float(arrays["unambiguity_range_m"]),
-        **{f"{FLAG_KEYS[bit]}_fraction": float(np.mean((flags & bit) != 0)) for bit in FLAGS},
+        **{f"{FLAG_KEYS[bit]}_fraction": share for bit, share in flag_fractions(flags).items()},
         "median_depth_std_mm": float(1e3 * np.nanmedian(arrays["depth_std_m"][good])) if good.any() else float("nan"),
         "median_abs_error_mm": float(1e3 * np.nanmedian(np.abs(err))) if err.size else float("nan"),
     }
