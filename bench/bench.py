@@ -238,7 +238,7 @@ def main_job_case() -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--quick", action="store_true", help="200 frames in the sweep, no 640 x 480 frame")
     parser.add_argument("--skip-subprocess", action="store_true", help="skip memory, calibrate and --help")

@@ -225,7 +225,7 @@ def sweep_cases() -> tuple[dict, dict]:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--quick", action="store_true", help="224 x 172 only, 3 repeats")
     parser.add_argument("--chunks", action="store_true", help="640 x 480 batches in chunks of 2^21 .. 2^27")

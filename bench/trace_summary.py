@@ -58,7 +58,7 @@ def timeline(events, threads, name: str, which: int, min_us: float) -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("trace")
     parser.add_argument("--top", type=int, default=12)
     parser.add_argument("--call", help="show the events inside one event whose name contains this")

@@ -207,7 +207,7 @@ FIGURES = {name: fn for name, fn in globals().items() if name.startswith("fig5_"
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "gallery")
     parser.add_argument("--iterations", type=int, default=1000)
     parser.add_argument("--only", nargs="*", help="figure names, e.g. fig5_05")

@@ -333,6 +333,41 @@ def true_values(cal: Calibration) -> list[dict]:
     return out
 
 
+def posterior_notes(cal: Calibration) -> list[str]:
+    """Where the posterior and the least squares disagree, why, and which to quote: one line per
+    fitted parameter whose least-squares estimate lies outside the posterior's 68 % interval (empty
+    without a posterior). The two answer different questions: the least squares minimises chi^2
+    alone; the posterior weighs the whole likelihood, whose uncertainties are the model's own and so
+    carry their normalisation -sum log sigma_i(theta) (docs/fitting.md "Uncertainties"), under the
+    prior (uniform within the bounds, or --prior's Gaussian), and reports quantiles of a
+    distribution that need not be Gaussian."""
+    ls, post, problem = cal.least_squares, cal.posterior, cal.problem
+    if post is None:
+        return []
+    out = []
+    for k, name in enumerate(ls.names):
+        j = post.names.index(name)
+        lo, median, hi, estimate = post.p16[j], post.median[j], post.p84[j], ls.estimate[k]
+        if lo <= estimate <= hi:
+            continue
+        unit = "" if ls.units[k] in ("1", "") else f" {ls.units[k]}"
+        lower, upper = float(problem.lower[k]), float(problem.upper[k])
+        bounds = {"both": f"uniform within its bounds {lower:g}-{upper:g}{unit}",
+                  "lower": f"uniform above its bound {lower:g}{unit}"}.get(problem.kinds[k], "uniform")
+        prior = (f"Gaussian {float(problem.prior_mean[k]):g} +- {float(problem.prior_sigma[k]):g}{unit}"
+                 if float(problem.prior_sigma[k]) > 0 else bounds)
+        skew = (hi - median) / (median - lo) if median > lo else float("inf")
+        shape = (f"; its posterior is skewed ({median - lo:.3g} below the median, {hi - median:.3g} above)"
+                 if not 0.67 < skew < 1.5 else "")
+        out.append(f"{name}: the least-squares estimate {estimate:.6g} lies outside the posterior's 68 % interval "
+                   f"[{lo:.6g}, {hi:.6g}]: the least squares minimises chi^2 alone, the posterior weighs the whole "
+                   "likelihood, whose uncertainties are the model's and carry their normalisation -sum log sigma_i "
+                   f"(a parameter that changes the predicted noise moves its peak), under a prior {prior}{shape}. "
+                   f"Quote the posterior: median {median:.6g}{unit}, 68 % in [{lo:.6g}, {hi:.6g}]; calibrated.toml holds "
+                   "the least-squares estimate (docs/fitting.md \"Posterior\")")
+    return out
+
+
 #: Rows of all files together that one calibration evaluates at once. Peak memory grows by about
 #: 4 kB per row (measured with one fitted parameter: 2 000 rows 0.61 GB, 20 000 rows 0.68 GB), so
 #: this bounds a calibration to about 1.5 GB.
@@ -638,13 +673,15 @@ def _report(cal: Calibration, figures: list[Path], comparisons=()) -> Summary:
                  f"max |r| {r['max_abs']:.2f}" for r in ls.residual_summary]]
     report.sections.append(Section("Least squares (Levenberg-Marquardt)", fit))
     if post is not None:
+        notes = posterior_notes(cal)
         report.sections.append(Section("Posterior (emcee)", [
             f"{post.walkers} walkers x {post.steps} steps, burn-in {post.burn_in}, thin {post.thin}, "
             f"{len(post.samples)} samples; acceptance {post.acceptance_fraction:.2f}",
             Table(("parameter", "median", "16 %", "84 %", "autocorrelation time [steps]"), tuple(
                 (n, f"{m:.6g}", f"{lo:.6g}", f"{hi:.6g}", f"{t:.1f}")
                 for n, m, lo, hi, t in zip(post.names, post.median, post.p16, post.p84, post.autocorr_time, strict=True))),
-            *([[f"warning: {w}" for w in post.warnings]] if post.warnings else [])]))
+            *([[f"warning: {w}" for w in post.warnings]] if post.warnings else []),
+            *([[f"note: {n}" for n in notes]] if notes else [])]))
     rows = []
     if comparisons:
         for before, after in comparisons:

@@ -12,7 +12,8 @@ value) or where its closed form is a caveat (near a limit, low SNR, coarse quant
 row whose measured frames were not all valid, is flagged by name.
 
 The model's expected depth of one frequency is its wrapped mean continued to the period nearest the
-real distance (what an unwrapping camera would report); a measured depth further than half the
+real distance (what an unwrapping camera would report; the figure draws it, as the measured readings,
+as read: wrapped into [0, range)); a measured depth further than half the
 unambiguity range from the real distance has its error taken modulo that range (a camera of one
 frequency reports wrapped depths); with several frequencies, whose camera claims the extended
 range, such a row is also flagged ``wrapped`` (a wrong unwrap).
@@ -333,10 +334,16 @@ def figure(c: FileComparison, title: str = ""):
     with np.errstate(divide="ignore", invalid="ignore"):
         relative_measured = c.measured["depth_std_m"] / c.distance_m
         relative_model = c.dense["depth_std_m"] / c.dense["distance_m"]
+    # The depth as the camera reads it, both the same way: wrapped into [0, range) (the model's expected
+    # depth is kept continued to the real distance's period for the error, where it had been drawn so
+    # beside the measured readings, which wrap); the model's line broken where it wraps.
+    read_measured = np.mod(c.measured["depth_mean_m"], c.range_m)
+    read_model = np.mod(c.dense["depth_mean_m"], c.range_m)
+    read_model[1:][np.diff(read_model) < -0.5 * c.range_m] = np.nan
     # (measured, its name, model curve, scale, model label, y label, title) per panel
     panels = (
-        (c.measured["depth_mean_m"], "depth mean", c.dense["depth_mean_m"], 1.0, "model (expected depth)",
-         "depth [m]", "calculated vs real distance"),
+        (read_measured, "depth mean", read_model, 1.0, "model (expected depth)",
+         "depth as read [m]", f"calculated vs real distance (read in [0, {c.range_m:.4g}) m)"),
         (c.depth_error_m["measured"], "depth mean", c.dense["depth_error_m"], 1e3, "model (wiggling)",
          "depth error [mm]", "depth error (depth - real distance)"),
         (c.measured["amplitude_mean_lsb"], "amplitude", c.dense["amplitude_mean_lsb"], 1.0, "model",

@@ -269,8 +269,12 @@ def at_edge(value: float, edge: float, start: float, span: float) -> bool:
 
 def bound_flags(problem: Problem, theta: np.ndarray, sigma: np.ndarray) -> list[dict]:
     """Parameters at a bound (the optimum lies outside or on it: the estimate and its sigma do
-    not describe the data's preference; :func:`at_edge`) or within 2 sigma of one (the Gaussian
-    uncertainty crosses it)."""
+    not describe the data's preference) or within 2 sigma of one (the Gaussian uncertainty crosses
+    it). A parameter the data do not determine (sigma not finite: the degeneracy notes name it) was
+    not pushed anywhere, and one farther than 2 sigma from a bound is a measurement, however close
+    to the bound its interval is (a frame rate of 5 Hz within 0-10 000 Hz is not at 0); *at* a bound
+    is closer than :data:`AT_BOUND` of the interval and than 0.1 sigma (:func:`at_edge`: and than its
+    start's distance to it)."""
     out = []
     lower, upper, start = np.asarray(problem.lower), np.asarray(problem.upper), np.asarray(problem.initial)
     for k, (name, kind) in enumerate(zip(problem.names, problem.kinds, strict=True)):
@@ -279,15 +283,15 @@ def bound_flags(problem: Problem, theta: np.ndarray, sigma: np.ndarray) -> list[
             bound = lower[k] if side == "lower" else upper[k]
             span = (upper[k] - lower[k]) if kind == "both" else max(abs(theta[k]), abs(bound), 1e-300)
             gap = abs(theta[k] - bound)
-            if at_edge(theta[k], bound, start[k], span):
+            if not np.isfinite(sigma[k]) or gap >= 2.0 * sigma[k]:
+                continue
+            if at_edge(theta[k], bound, start[k], span) and gap <= 0.1 * sigma[k]:  # on it
                 message = (f"{name} = {theta[k]:.6g} is at its {side} bound {bound:g}: the data push it there, so "
                            "its estimate and sigma are not a measurement; widen the bound (--bounds) if that is "
                            "physical, or the model lacks what the data show")
-            elif np.isfinite(sigma[k]) and gap < 2.0 * sigma[k]:
+            else:
                 message = (f"{name} = {theta[k]:.6g} is within {gap / sigma[k]:.2g} sigma of its {side} bound {bound:g}: "
                            "its uncertainty is not Gaussian there (the posterior, --mcmc, describes it)")
-            else:
-                continue
             out.append({"name": name, "bound": side, "bound_value": float(bound), "value": float(theta[k]),
                         "distance_sigma": float(gap / sigma[k]) if np.isfinite(sigma[k]) and sigma[k] > 0 else None,
                         "message": message})

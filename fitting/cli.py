@@ -112,7 +112,7 @@ def offset_note(ls) -> str | None:
 def _print_estimates(ls, posterior=None) -> None:
     width = max(len(n) for n in ls.names)
     for n, u, e, s in zip(ls.names, ls.units, ls.estimate, ls.sigma, strict=True):
-        line = f"  {n:<{width}} = {e:.6g} +- {s:.3g} {u}"
+        line = f"  {n:<{width}} = {e:.6g} +- {s:.3g}" + ("" if u in ("1", "") else f" {u}")  # "1": unitless
         if posterior is not None:
             k = posterior.names.index(n)
             line += f"   posterior {posterior.median[k]:.6g} [{posterior.p16[k]:.6g}, {posterior.p84[k]:.6g}]"
@@ -202,6 +202,10 @@ def run(args) -> int:
             print(f"posterior: {post.walkers} walkers x {post.steps} steps (burn-in {post.burn_in}, thin {post.thin}), "
                   "median [16 %, 84 %]:")
             _print_estimates(ls, post)
+            from ._calibrate import posterior_notes
+
+            for note in posterior_notes(cal):
+                print(f"note: {note}")
     if not args.quiet:
         print(f"writing the results, figures and report into {args.out} ...", file=sys.stderr, flush=True)
     try:

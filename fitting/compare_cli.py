@@ -33,7 +33,7 @@ def run(args) -> int:
     check_output_dir(args.out, "--out", args)
     # Before JAX starts: a comparison is one short analytic program per camera, where compilation is
     # most of the time (the faster-compiling CPU emitters: 10.1 -> see docs/fitting.md).
-    enable_compilation_cache(fast_compile=True)
+    enable_compilation_cache(fast_compile=True, notice=False)
     import tofjax as tj
 
     from ._compare import bound_lines, compare_measurements, write_comparison

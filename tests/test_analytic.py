@@ -228,6 +228,11 @@ def test_public_api_under_jit_vmap_grad():
         return tj.predict(sine, tj.Sweep("distance", d[None])).depth_std_m[0]
 
     assert float(jax.grad(distance_grad)(jnp.asarray(2.0))) > 0  # noise grows with distance
+    # A saturated point in the hard mode: NaN, and a gradient of 0, not NaN; tj.predict says so and
+    # points to the smooth mode (an optimiser had no warning).
+    assert np.isnan(distance_grad(jnp.asarray(0.05))) and float(jax.grad(distance_grad)(jnp.asarray(0.05))) == 0.0
+    assert "their gradient is 0, not NaN" in " ".join(tj.predict.__doc__.split())
+    assert "smooth=tj.Smooth()" in tj.predict.__doc__
 
 
 def test_new_parameter_values_do_not_recompile():
@@ -289,8 +294,13 @@ def test_caveats_say_where_the_closed_form_is_not_what_frames_show():
     quiet = tj.predict(tj.Params(pixel=tj.Pixel(noise=False)), tj.Sweep("distance", d))
     assert np.all(np.asarray(quiet.caveats) & tj.schema.CAVEAT_COARSE_QUANTIZATION)
     dim = tj.predict(tj.Params(illumination=tj.Illumination(peak_power_w=0.02)), tj.Sweep("distance", d))
-    assert np.asarray(dim.caveats)[2] & tj.schema.CAVEAT_LOW_SNR and len(dim.caveat_summary()) >= 1
-    assert tj.simulate(tj.Params(), tj.Sweep("distance", d), jax.random.key(0), 4).caveats is None
+    assert np.asarray(dim.caveats)[2] & tj.schema.CAVEAT_LOW_SNR and "of 3 points: low SNR" in dim.caveat_summary()
+    mc = tj.simulate(tj.Params(), tj.Sweep("distance", d), jax.random.key(0), 4)
+    assert mc.caveats is None and mc.caveat_lines() == []
+    # Printed (the README does), nothing to say is a sentence, not "[]".
+    nominal = tj.predict(tj.Params(pixel=tj.Pixel(sbi=False)), tj.Sweep("distance", d[:1]))
+    assert nominal.caveat_summary() == "no caveats: the closed form holds at every point"
+    assert mc.caveat_summary().startswith("no caveats: a Monte Carlo result")
 
 
 @pytest.mark.parametrize("sbi", [False, True])

@@ -177,6 +177,16 @@ def test_the_frame_api_refuses_what_the_command_line_refuses(tmp_path):
          "path_m has shape (172, 224, 1) and radiance_per_w (172, 223, 1): allowed equal shapes"),
         (lambda: tj.simulate(tj.Camera(params, settings), wall, jax.random.key(0), 0),
          "frames = 0 is out of range: allowed integer >= 1"),
+        # No return per pixel (was: TypeError, reduce() of empty iterable), a camera sample of another
+        # shape (was: a broadcasting TypeError), a preset name that is not a string (was: AttributeError).
+        (lambda: tj.Camera(params, settings).returns(tj.Returns(wall.path_m[..., :0], wall.radiance_per_w[..., :0],
+                                                                wall.ambient_reflectivity, wall.radial_m)),
+         "path_m has shape (172, 224, 0) and radiance_per_w (172, 224, 0): allowed equal shapes (rows, cols, returns) "
+         "with at least one return per pixel"),
+        (lambda: tj.predict(tj.Camera(params, settings, pattern=tj.draw_pattern(params, settings, (10, 12))), wall),
+         "pattern.gain has shape (10, 12), the camera 172 x 224 pixels: allowed a pattern of the camera's shape"),
+        (lambda: tj.preset_config(None), "preset = None is not known: allowed 'thesis', "),
+        (lambda: tj.preset_config(5), "preset = 5 is not known: allowed 'thesis', "),
     ]
     for make, says in cases:
         with pytest.raises(ValueError) as err:

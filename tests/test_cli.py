@@ -39,12 +39,15 @@ def test_simulate_writes_a_readable_sweep_file(capsys, tmp_path, method):
     assert tj.config_from_dict(__import__("json").loads(data.metadata["config_json"])).values == tj.Config().values
 
 
-def test_simulate_uses_the_configuration(tmp_path):
+def test_simulate_uses_the_configuration(tmp_path, capsys):
     cfg = tmp_path / "cam.toml"
     cfg.write_text("[pixel]\nn_phases = 3\n[scene]\nsamples = 4\nintegration_time_from_s = 1e-3\n")
     out = tmp_path / "t.csv"
     assert main(["simulate", "--config", str(cfg), "--sweep", "integration_time", "--method", "analytic",
                  "--out", str(out)]) == 0
+    # The summary's integration time is in seconds, as --from and --to take it (it was in ms).
+    table = capsys.readouterr().out.splitlines()
+    assert table[0].startswith("integration_time [s]") and table[2].split()[0] == "0.001"
     data = sf.read_sweep(out)
     assert data.n_phases == 3 and data.n_rows == 4 and data.sweep == "integration_time"
     np.testing.assert_allclose(data.columns["integration_time_s"], np.linspace(1e-3, 5e-3, 4))
@@ -94,6 +97,13 @@ def test_no_traceback_from_the_installed_entry_point(tmp_path):
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0 and proc.stdout.startswith("distance [m]") and "eye safety" in proc.stdout
     assert sf.read_sweep(tmp_path / "y.csv").n_rows == 5
+
+
+def test_tofjax_alone_prints_its_help(capsys):
+    """Without a command: the help on standard output and status 0 (it was an error, status 2)."""
+    assert main([]) == 0
+    out, err = capsys.readouterr()
+    assert out.startswith("usage: tofjax") and all(c in out for c in ("simulate", "render", "calibrate")) and err == ""
 
 
 def test_help_imports_neither_jax_nor_matplotlib():

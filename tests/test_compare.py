@@ -79,6 +79,14 @@ def test_compare_depth_only_amplitude_only_and_multifrequency(files):
     assert np.all(np.isnan(depth.ratio("amplitude_mean_lsb"))) and np.all(np.isnan(amp.ratio("depth_std_m")))
     # the model's expected depth of one frequency is continued to the real distance's period
     np.testing.assert_allclose(depth.model["depth_mean_m"][1:], D, atol=0.03)
+    # ... and drawn as the measured readings are, as read: wrapped into [0, 1.866) m, the line broken at
+    # the wrap (it had been drawn unwrapped, up to 3 m, beside readings that wrap)
+    lines = {line.get_label(): np.asarray(line.get_ydata(), dtype=float)
+             for line in ft._compare.figure(depth).axes[0].lines}
+    read, model = lines["measured"], lines["model (expected depth)"]
+    assert read.size == len(D) and np.all(read < depth.range_m) and read.max() > 0.9 * depth.range_m
+    finite = np.flatnonzero(np.isfinite(model))  # the near rows saturate (no value); D reaches 3 m: one wrap
+    assert np.nanmax(model) < depth.range_m and np.sum(np.diff(finite) > 1) == 1
     assert multi.range_m == pytest.approx(7.465, abs=1e-3)
     with pytest.raises(ft.CalibrationInputError, match="measured at 2 modulation frequencies.*configuration has 1"):
         compare([files[2]])  # never modelled with one frequency silently

@@ -217,6 +217,9 @@ def test_calculate_runs_the_sweep_with_busy_lamp_time_and_the_ticked_plots():
     assert "at the nominal point" in ex.summary.value and ex.headlines["nominal_depth_std_m"] > 0
     assert "eye safety (an estimate" in ex.summary.value  # the frame's timing and eye safety too
     assert not ex.calculate_button.disabled and ex.message.value == "" and not ex.stale
+    # What a script (notebook 06, under Voila) prints is text: the widget's HTML had shown as &#x27;.
+    assert "&#x27;" in ex.summary.value and "a frame's phase images" in ex.summary_text
+    assert "<" not in ex.summary_text and len(ex.summary_text.splitlines()) >= 4
 
     ex.method.value = "analytic"
     ex.sweep.value = "distance"
@@ -347,6 +350,7 @@ def test_a_run_can_be_cancelled_and_changed_settings_mark_it_stale(tmp_path):
         ex.path.value = outside
         ex.save_button.click()
         assert ("only in" in ex.message.value or "give a file name" in ex.message.value), ex.message.value
+        assert ex.message.value.startswith("<span style=") and not ex.message_text.startswith("<")
         assert ex.save_figure("amplitude") is None
     assert not (tmp_path.parent / "up.toml").exists()
     ex.path.value = str(tmp_path / "camera.toml")

@@ -107,6 +107,23 @@ def test_transforms_are_bijective_and_never_clip():
     assert float(p.log_abs_jacobian(jnp.asarray(u))) == pytest.approx(math.log(d), rel=1e-7)
 
 
+def test_a_bound_flag_needs_the_data_to_push_the_parameter_there():
+    """A parameter the data cannot see (sigma inf) stays at its start: it is not "at its lower bound 0"
+    because its interval is wide (a frame rate of 5 within 0-10 000 Hz was), nor is a well-measured
+    50 +- 2 e- within 0-1e5 (1e-3 of the interval); a dark slope pushed onto 0 is."""
+    from types import SimpleNamespace
+
+    from fitting._least_squares import bound_flags
+
+    problem = SimpleNamespace(names=("timing.frame_rate_hz", "pixel.readout_noise_e", "pixel.dark_slope_mean_v_per_s"),
+                              kinds=("both", "both", "both"), lower=np.zeros(3), upper=np.array([1e4, 1e5, 100.0]))
+    flags = bound_flags(problem, np.array([5.0, 50.0, 1e-6]), np.array([np.inf, 2.0, 0.1]))
+    assert [(f["name"], f["bound"]) for f in flags] == [("pixel.dark_slope_mean_v_per_s", "lower")]
+    assert flags[0]["message"].startswith("pixel.dark_slope_mean_v_per_s = 1e-06 is at its lower bound 0: the data")
+    near = bound_flags(problem, np.array([5.0, 3.0, 1.0]), np.array([np.inf, 2.0, 0.1]))
+    assert [f["message"][:58] for f in near] == ["pixel.readout_noise_e = 3 is within 1.5 sigma of its lower"]
+
+
 @pytest.mark.parametrize(
     "kwargs, pattern",
     [

@@ -272,10 +272,10 @@ def test_a_flat_wall_falls_off_as_profile_times_cos4_times_incidence(params):
     n = 2.5
     p = eqx.tree_at(lambda q: q.illumination.fov_deg, params, jnp.asarray(20.0))
     s = tj.FrameSettings(subpixel_samples=1, illumination_falloff_exponent=n)
-    frame = tj.predict(tj.Camera(p, s), scenes.wall(2.0, 0.9))
+    frame = tj.predict(tj.Camera(p, s), scenes.wall(1.5, 0.9))  # within the unambiguity range: good pixels
     signal = np.asarray(frame.result.noise.signal_e)
     flat = tj.FrameSettings(subpixel_samples=1)
-    axis = float(tj.predict(tj.Camera(p, flat), scenes.wall(2.0, 0.9)).result.noise.signal_e[CENTRE])
+    axis = float(tj.predict(tj.Camera(p, flat), scenes.wall(1.5, 0.9)).result.noise.signal_e[CENTRE])
     cos_phi = np.asarray(frame.direction)[..., 2]
     t = np.tan(np.deg2rad(10.0))
     s_n = np.pi * ((1 + t * t) ** (1 - n / 2) - 1) / (1 - n / 2)
@@ -542,6 +542,18 @@ def test_render_command_writes_every_output(tmp_path, capsys):
     documented = (Path(__file__).parents[1] / "docs" / "model.md").read_text()
     assert [key for key in data.files if f"`{key}`" not in documented] == []
     assert {"radial_m.png", "predicted_std_mm.png", "error_mm.png", "report.html"} <= {p.name for p in out.iterdir()}
+    # flags.png is categorical: good pixels and wrapped ones (the wall at 3 m) in colours of their own
+    # (on the old 0-127 colour scale both were blue), each combination present named in a legend.
+    from matplotlib.colors import to_rgb
+
+    classes = frameio.flag_classes(data["flags"])
+    labels = [label for _, label, _ in classes]
+    assert labels[0].startswith("good (no flag): ") and any(label.startswith("wrapped") for label in labels)
+    shown = {tuple(c) for c in np.asarray(Image.open(out / "flags.png").convert("RGB")).reshape(-1, 3)}
+    colours = [tuple(round(255 * x) for x in to_rgb(colour)) for _, _, colour in classes]
+    assert len(set(colours)) == len(classes) and set(colours) <= shown
+    legend = frameio.frame_figure(dict(data)).legends  # the explorer's Frame tab, as render draws it
+    assert [t.get_text() for t in legend[0].get_texts()] == labels
     report = (out / "report.html").read_text()
     assert "data:image/png;base64" in report and "frame: 4 phase images of 2 ms" in report
 
@@ -636,18 +648,24 @@ def test_every_flag_on_a_scene_built_to_trigger_it(params, one_ray):
     both = np.ptp(paths, axis=-1) > 0.5
     np.testing.assert_array_equal(np.unique(np.nonzero(both)[1]), columns)
     # No return: a wall of reflectivity 0 (no light comes back), and a sphere's surroundings (no surface).
-    _, flags = _flags(params, one_ray, scenes.wall(1.0, 0.0))
+    # A frame without a good pixel says so, and why (it had read plausible numbers in silence).
+    with pytest.warns(tj.schema.NoGoodPixelsWarning, match=r"^no good pixel: every pixel is flagged \(100.0 % low "
+                      r"signal, 100.0 % no return\); the pixels see no surface the illumination lights$"):
+        _, flags = _flags(params, one_ray, scenes.wall(1.0, 0.0))
     assert np.all(flags & FLAG_NO_RETURN) and np.all(flags & FLAG_LOW_SIGNAL)  # and no signal: low signal too
     frame, flags = _flags(params, one_ray, scenes.sphere(1.2, 0.1, 0.9))
     np.testing.assert_array_equal((flags & FLAG_NO_RETURN) != 0, ~np.isfinite(np.asarray(frame.radial_true_m)))
     # Outside the illumination: an illumination cone of 20 degrees (diagonal) in a camera of 75.
     narrow = eqx.tree_at(lambda p: p.illumination.fov_deg, params, jnp.asarray(20.0))
-    frame, flags = _flags(narrow, one_ray, scenes.wall(1.0))
+    with pytest.warns(tj.schema.NoGoodPixelsWarning):  # the lit pixels saturate: none is good
+        frame, flags = _flags(narrow, one_ray, scenes.wall(1.0))
     angle = np.degrees(np.arccos(np.asarray(frame.direction)[..., 2]))
     np.testing.assert_array_equal((flags & FLAG_OUTSIDE_ILLUMINATION) != 0, angle > 10.0)
     assert np.all(flags[angle > 10.0] & FLAG_NO_RETURN)  # no light comes back from there either
     # Saturated: a wall at 5 cm; low signal and low amplitude from the expected (analytic) values.
-    _, flags = _flags(params, one_ray, scenes.wall(0.05))
+    with pytest.warns(tj.schema.NoGoodPixelsWarning, match=r"\(100.0 % saturated, 100.0 % low signal\); the scene "
+                                                           r"is too close or too bright"):
+        _, flags = _flags(params, one_ray, scenes.wall(0.05))
     assert np.all(flags & FLAG_SATURATED)
     frame, flags = _flags(params, one_ray, scenes.wall(1.5, 0.1))  # a dark wall: the noisy corners flagged
     phase = np.asarray(frame.quality.expected_phase_std_rad)
@@ -665,7 +683,8 @@ def test_monte_carlo_low_signal_comes_from_the_expected_noise_not_two_frames(par
     that receives no light has no valid frame (its phase is noise alone), in the statistics, in the
     noisy frames and in the analytic frame."""
     returns = tj.Camera(params, one_ray).returns(scenes.wall(1.0, 0.0))
-    frame = tj.simulate(tj.Camera(params, one_ray), returns, jax.random.key(3), 2)
+    with pytest.warns(tj.schema.NoGoodPixelsWarning, match="^no good pixel: every pixel is flagged"):
+        frame = tj.simulate(tj.Camera(params, one_ray), returns, jax.random.key(3), 2)
     assert np.all(np.asarray(frame.flags) & FLAG_LOW_SIGNAL) and np.all(np.asarray(frame.flags) & FLAG_NO_RETURN)
     assert np.all(np.asarray(frame.result.valid_fraction) == 0) and np.all(np.isnan(np.asarray(frame.radial_m)))
     exposed = tj.Camera(params, one_ray).expose(returns)

@@ -55,6 +55,13 @@ def test_readme_links_every_notebook_with_one_line():
         assert re.search(r"\]\(notebooks/" + re.escape(path.name) + r"\)", lines[0])
 
 
+def test_the_explorer_notebook_prints_text_not_its_widgets_html():
+    """Voila shows a cell's printed output as text: printing an HTML widget's value showed
+    ``<span style=...>`` and ``&#x27;`` (the explorer's ``message_text`` and ``summary_text`` are the text)."""
+    source = "\n".join(c.source for c in _read(ROOT / "notebooks" / "06_explorer.ipynb").cells if c.cell_type == "code")
+    assert "message_text" in source and not re.search(r"print\([^)]*\.(message|summary)\.value", source)
+
+
 @pytest.fixture(scope="module")
 def kernel():
     """One kernel for the notebooks, started once: each notebook starts from an empty namespace

@@ -135,22 +135,37 @@ def test_a_terminal_bar_counts_in_whole_numbers():
     assert "1/16 " in text and ".0/" not in text and "/16.0" not in text
 
 
-def test_scripts_and_notebooks_turn_the_compilation_cache_on():
+def test_scripts_and_notebooks_turn_the_compilation_cache_on(capsys, monkeypatch):
+    """... and hear what the commands say when they compile for long (a cold README frame snippet
+    compiled for a minute in silence), on standard error, once."""
+    import functools
     import json
+    import random
     from pathlib import Path
 
     import jax
+    import jax.numpy as jnp
 
     import tofjax as tj
+    from tofjax import progress
 
     before = (jax.config.jax_compilation_cache_dir, jax.config.jax_persistent_cache_min_compile_time_secs)
+    monkeypatch.setattr(progress, "COMPILING_NOTICE_S", 0.0)
     try:
         path = tj.enable_compilation_cache()
         assert path is not None and jax.config.jax_compilation_cache_dir == path
         assert jax.config.jax_persistent_cache_min_compile_time_secs == 0.0  # every program is kept
-    finally:  # the rest of this worker's tests compile as before
+        for scale in (random.random(), random.random()):  # programs no run has compiled before (their constants)
+            jax.jit(functools.partial(lambda c, x: jnp.sin(x) * c, scale))(jnp.arange(3.0)).block_until_ready()
+            for _ in range(40):  # the notice's thread looks every 0.1 s
+                if progress._notice.announced:
+                    break
+                time.sleep(0.05)
+    finally:  # the rest of this worker's tests compile as before, without the notice
+        progress.compile_notice(False)
         jax.config.update("jax_compilation_cache_dir", before[0])
         jax.config.update("jax_persistent_cache_min_compile_time_secs", before[1])
+    assert capsys.readouterr().err == "compiling (first run; cached for next time) ...\n"
     for notebook in sorted((Path(__file__).resolve().parents[1] / "notebooks").glob("*.ipynb")):
         cells = [c for c in json.loads(notebook.read_text())["cells"] if c["cell_type"] == "code"]
         assert "tj.enable_compilation_cache()" in "".join(cells[1]["source"]), notebook.name

@@ -1,5 +1,6 @@
 """The simulation report (tofjax/report.py): files, headline figures."""
 
+import numpy as np
 import pytest
 
 import tofjax as tj
@@ -21,10 +22,14 @@ def test_report_writes_csv_pngs_and_html(tmp_path, capsys, sweep):
     for text in ("Headline figures", "SBI engages at", "relative depth noise reaches 1 %", "Dominant noise source",
                  "[pixel]", "run time", "Frame timing and eye safety", "eye safety (an estimate against IEC"):
         assert text in html
+    # Each headline figure says where it comes from: the run's own sweep where it covers the figure.
+    assert "<th>from</th>" in html and "at the nominal point</td>" in html
+    assert ("this distance sweep (Monte Carlo)" in html) == (sweep == "distance")
+    assert ("this illuminance sweep (Monte Carlo)" in html) == (sweep == "illuminance")
 
 
 def test_headlines_are_physical():
-    from tofjax.report import headlines
+    from tofjax.report import headline_figure, headlines
 
     r = tj.predict(tj.Params(), tj.Sweep.linspace("distance", 0.5, 4.5, 30))
     h = headlines(tj.Params(), r)
@@ -35,6 +40,22 @@ def test_headlines_are_physical():
     assert no_sbi["pixel_saturates_at_lx"] == pytest.approx(h["sbi_engages_at_lx"], rel=0.05)
     sources = [region["source"] for region in h["dominant_noise"]]
     assert sources == ["photon shot noise", "read noise"]  # shot noise near, read noise far
+    # The distance figures of a distance sweep are its own (they had come from a hidden scan over
+    # 0.05-50 m and contradicted the sweep's table): its first sample at or above 1 %, 2 % beyond
+    # it, valid from its first sample on; an illuminance figure is the scan's, and says so.
+    short = tj.predict(tj.Params(), tj.Sweep.linspace("distance", 0.5, 2.5, 30))
+    hs = headlines(tj.Params(), short)
+    d = np.asarray(short.distance_m)
+    rel = np.asarray(short.depth_std_m) / d
+    i = int(np.argmax(rel >= 0.01))
+    assert hs["from_sweep"]["relative_noise_1pct_at_m"] == (d[i], "at") and 0 < i and rel[:i].max() < 0.01
+    assert hs["from_sweep"]["relative_noise_2pct_at_m"] == (None, "beyond") and rel.max() < 0.02
+    value, source = headline_figure(hs, "relative_noise_2pct_at_m", "m")
+    assert value == "beyond the sweep (0.5-2.5 m)"
+    assert source.endswith(f"puts it at {hs['relative_noise_2pct_at_m']:.4g} m")
+    assert hs["from_sweep"]["valid_from_m"] == (0.5, "start")
+    assert headline_figure(hs, "valid_from_m", "m")[0] == "at or below 0.5 m"
+    assert headline_figure(hs, "sbi_engages_at_lx", "lx")[1].startswith("analytic scan over 0-200 klx")
 
 
 def test_one_summary_renders_as_text_markdown_and_html_with_every_text_escaped():

@@ -106,3 +106,25 @@ def test_the_public_surface_is_the_documented_short_list():
     for module in re.findall(r"^\| `tofjax\.(\w+)`", modules_part, re.M):
         assert module in tj._SUBMODULES and importlib.import_module(f"tofjax.{module}").__doc__, module
     assert set(re.findall(r"`tofjax\.(\w+)`", modules_part)) == set(tj._SUBMODULES)
+
+
+def test_every_script_says_in_its_help_what_it_does(monkeypatch, capsys):
+    """``python bench/bench.py --help`` (and the other scripts') prints the script's description whole:
+    it printed the docstring's first line, which stops mid-sentence ("... floor, on")."""
+    import re
+    import runpy
+    import sys
+
+    import pytest
+
+    monkeypatch.setattr(sys, "path", list(sys.path))  # a script puts its folder first: not for the next tests
+    for path in [*sorted((ROOT / "bench").glob("*.py")), ROOT / "docs" / "gallery.py"]:
+        text = path.read_text()
+        if "argparse" not in text or "numpy_baseline" == path.stem:
+            continue
+        monkeypatch.setattr(sys, "argv", [str(path), "--help"])
+        with pytest.raises(SystemExit) as done:
+            runpy.run_path(str(path), run_name="__main__")
+        printed = " ".join(capsys.readouterr().out.split())
+        first = " ".join(ast.get_docstring(ast.parse(text)).split("\n\n")[0].split())  # the first paragraph
+        assert done.value.code == 0 and first in printed and re.search(r"[.:)]$", first), path.name

@@ -37,10 +37,18 @@ def test_the_frame_in_time_in_closed_form():
 
 
 def test_a_frame_rate_the_phase_images_do_not_fit_is_refused():
+    """In Python as on the command line: camera.timing (and so camera.eye_safety) refuses it; 10 000
+    frames/s of 4 x 2 ms phase images was a lit fraction of 80."""
     camera = tj.Camera.from_config(with_values(**{"timing.frame_rate_hz": 120.0}))
     with pytest.raises(ValueError, match=r"timing.frame_rate_hz = 120 is out of range: 4 phase images of 2 ms, each "
                                          r"read out in 1 ms, allow at most 83.33 Hz"):
-        check_frame_rate(camera.timing)
+        camera.timing  # noqa: B018 - the property refuses
+    fast = tj.Camera.from_config(with_values(**{"timing.frame_rate_hz": 10_000.0, "timing.readout_time_s": 0.0}))
+    for what in ("timing", "eye_safety"):
+        with pytest.raises(ValueError, match=r"^timing.frame_rate_hz = 10000 is out of range: 4 phase images of 2 ms, "
+                                             r"each read out in 0 ms, allow at most 125 Hz \(0 = that\)$"):
+            getattr(fast, what)
+    check_frame_rate(tj.Camera.from_config(tj.Config()).timing)  # the default fits
 
 
 @pytest.mark.parametrize("wavelength_nm, limit_mw", [(850, 0.78), (940, 1.18)])
@@ -59,20 +67,52 @@ def test_the_class_1_limits_are_the_published_ones(wavelength_nm, limit_mw):
     np.testing.assert_allclose(_pulse_limit_j(10.0, c4), 10.0 * safety.average_limit_w, rtol=1e-12)
 
 
-def test_the_aperture_takes_its_share_of_a_uniform_cone():
+def _cone_share(theta_c, half, n, alpha, steps=400):
+    """The share of a round beam (half-angle ``half``, irradiance cos^n on a plane) in the cone of
+    half-angle ``alpha`` about the polar angle ``theta_c``: the intensity (1 + tan^2)^((3 - n) / 2) / S
+    summed over a midpoint grid of the cone, zero outside the beam."""
+    t = np.tan(half)
+    m = 1 - n / 2
+    s = np.pi * np.log1p(t * t) if m == 0 else np.pi * np.expm1(m * np.log1p(t * t)) / m
+    beta, phi = np.meshgrid((np.arange(steps) + 0.5) / steps * alpha, (np.arange(steps) + 0.5) / steps * 2 * np.pi,
+                            indexing="ij")
+    c, e1 = np.array([np.sin(theta_c), 0, np.cos(theta_c)]), np.array([np.cos(theta_c), 0, -np.sin(theta_c)])
+    ring = np.cos(phi)[..., None] * e1 + np.sin(phi)[..., None] * np.cross(c, e1)
+    v = np.cos(beta)[..., None] * c + np.sin(beta)[..., None] * ring
+    tan2 = (v[..., 0] ** 2 + v[..., 1] ** 2) / v[..., 2] ** 2
+    intensity = np.where(tan2 <= t * t, (1 + tan2) ** (1.5 - n / 2) / s, 0.0)
+    return np.sum(intensity * np.sin(beta)) * (alpha / steps) * (2 * np.pi / steps)
+
+
+def test_the_aperture_takes_its_share_of_the_beam_and_never_more_than_all_of_it():
     """With the falloff exponent 3 the illumination's intensity is uniform over its cone (cos^0), so the
     7 mm aperture at 100 mm takes its solid angle's share of the cone's: 2 pi (1 - 100/hypot(100, 3.5))
-    / (2 pi (1 - cos(FoV/2))); the thesis' flat spot (0) is brightest at its rim, (1 + tan^2)^1.5 / (pi
-    tan^2) per steradian."""
+    / (2 pi (1 - cos(FoV/2))). The thesis' flat spot (0) is brightest at its rim, (1 + tan^2)^1.5 / (pi
+    tan^2) per steradian: the aperture collects most just inside it, the cone's integral there, and
+    more than wherever else its centre stands (the rim itself: half the cone outside the beam). A beam
+    narrower than the aperture's cone is collected whole: a 1-degree beam gave 16x its power (the
+    intensity at its brightest direction times the aperture's solid angle), [179, 1] degrees 1446x."""
     params = tj.Params()
-    aperture = 1 - 0.1 / np.hypot(0.1, 3.5e-3)
+    alpha = np.arctan(3.5e-3 / 0.1)
+    aperture = 1 - np.cos(alpha)
     half = np.deg2rad(75.0) / 2
     cone = tj.Camera(params, tj.FrameSettings(illumination_falloff_exponent=3.0)).eye_safety
     np.testing.assert_allclose(cone.aperture_fraction, aperture / (1 - np.cos(half)), rtol=1e-10)
     flat = tj.Camera(params).eye_safety
-    t = np.tan(half)
-    np.testing.assert_allclose(flat.aperture_fraction, 2 * np.pi * aperture * (1 + t * t) ** 1.5 / (np.pi * t * t),
-                               rtol=1e-10)
+    inside = _cone_share(half - alpha, half, 0.0, alpha)
+    np.testing.assert_allclose(flat.aperture_fraction, inside, rtol=1e-4)
+    assert all(_cone_share(half - alpha * k, half, 0.0, alpha) < inside for k in (0.0, 0.5, 1.5, 3.0))
+
+    def fraction(fov_deg, n=0.0):
+        p = eqx.tree_at(lambda q: q.illumination.fov_deg, params, np.asarray(fov_deg, dtype=float))
+        return float(tj.Camera(p, tj.FrameSettings(illumination_falloff_exponent=n)).eye_safety.aperture_fraction)
+
+    assert fraction(1.0) == pytest.approx(1.0, abs=1e-12) and fraction([1.0, 1.0]) == pytest.approx(1.0, abs=1e-12)
+    assert fraction([179.0, 1.0]) < 1e-3  # a fan: the aperture sees a sliver of it
+    np.testing.assert_allclose(fraction(6.0), _cone_share(np.deg2rad(3.0) - alpha, np.deg2rad(3.0), 0.0, alpha), rtol=1e-4)
+    shares = [fraction(fov, n) for n in (0.0, 3.0, 20.0) for fov in (0.5, 4.0, 4.01, 10.0, 75.0, 179.0, [3.0, 60.0],
+                                                                      [4.5, 4.5], [60.0, 45.0], [179.0, 179.0])]
+    assert max(shares) <= 1.0 + 1e-12 and min(shares) > 0.0
     # Every accessible emission is that share of the power over its time.
     timing = tj.Camera(params).timing
     np.testing.assert_allclose(flat.pulse_j, flat.aperture_fraction * timing.lit_power_w * 2e-3, rtol=1e-12)

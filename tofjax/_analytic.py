@@ -142,7 +142,8 @@ def predict(params: Params, sweep: Sweep, *, smooth: Smooth | None = None, patte
     - ``params``: the camera (:class:`tofjax.Params`).
     - ``sweep``: the operating points (:class:`tofjax.Sweep`; any shape).
     - ``smooth``: ``None`` (default) for the hard saturation and ADC, or a :class:`tofjax.Smooth`
-      with temperatures for a differentiable relaxation.
+      with temperatures for a differentiable relaxation. Hard: a saturated point's statistics are
+      NaN and their gradient 0, not NaN (:func:`tofjax.predict`, "Gradients").
     - ``pattern``: the swept pixel's own parameters, a :class:`tofjax.PixelPattern` of one pixel
       (``tj.draw_pattern(params, settings, (1, 1))``: its gain, dark slopes, phase offset, tap
       asymmetry and full well, as a frame's pixel has them); ``None``: the mean pixel.

@@ -30,7 +30,7 @@ def compilation_cache_dir() -> str | None:
 FAST_COMPILE_XLA_FLAG = "--xla_cpu_use_fusion_emitters=false"
 
 
-def enable_compilation_cache(fast_compile: bool = False) -> str | None:
+def enable_compilation_cache(fast_compile: bool = False, *, notice: bool = True) -> str | None:
     """Turn on JAX's persistent compilation cache for this process, as every ``tofjax`` command
     does: the second run of a script or notebook loads its compiled programs instead of compiling
     them again (README, "Python API"). The directory is :func:`compilation_cache_dir`'s
@@ -38,11 +38,18 @@ def enable_compilation_cache(fast_compile: bool = False) -> str | None:
     ``TOFJAX_CACHE_DIR=off`` turns it off); every program is kept, the small ones too (a warm calibration
     compiled 40 small programs again in 0.6 s, and loads them in 0.3 s).
     ``fast_compile``: also ask XLA for its faster-compiling CPU emitters
-    (:data:`FAST_COMPILE_XLA_FLAG`; only before JAX has started). Returns the directory (or
-    ``None``). Call it once, before the first computation."""
+    (:data:`FAST_COMPILE_XLA_FLAG`; only before JAX has started). ``notice``: say ``compiling (first
+    run; cached for next time) ...`` on standard error once, when this process has compiled for 2 s,
+    as the commands do (:func:`tofjax.progress.compile_notice`; the commands say it themselves, and
+    ``--quiet`` silences it). Returns the directory (or ``None``). Call it once, before the first
+    computation."""
     flags = os.environ.get("XLA_FLAGS", "")
     if fast_compile and "jax" not in sys.modules and "fusion_emitters" not in flags:
         os.environ["XLA_FLAGS"] = f"{flags} {FAST_COMPILE_XLA_FLAG}".strip()
+    if notice:
+        from .progress import compile_notice
+
+        compile_notice()
     path = compilation_cache_dir()
     if path is None:
         return None

@@ -192,10 +192,15 @@ class Camera(eqx.Module):
         """The frame's timing and the illumination's power over it (``tofjax._timing.FrameTiming``:
         phase images, exposure, frame rate, lit fraction, peak / lit / average power), at the
         parameters' integration time; ``[timing]`` configures it (docs/model.md, "Frame timing and
-        eye safety")."""
-        from ._timing import frame_timing
+        eye safety"). A frame rate its phase images do not fit is a ``ValueError`` naming
+        ``timing.frame_rate_hz`` (as the commands refuse it; under a transformation, where the values
+        are traced, it is not checked)."""
+        from ._timing import check_frame_rate, frame_timing
 
-        return frame_timing(self.params, max(len(self.frequencies_hz), 1))
+        timing = frame_timing(self.params, max(len(self.frequencies_hz), 1))
+        if not _jit.traced(timing):
+            check_frame_rate(timing)
+        return timing
 
     @property
     def eye_safety(self):
@@ -231,12 +236,19 @@ def predict(camera, scene, *, smooth: Smooth | None = None, pattern: PixelPatter
     ``camera`` may be a :class:`tofjax.Params` for a sweep (module docstring):
     ``predict(params, sweep, smooth=..., pattern=...)``.
 
+    **Gradients.** In the hard mode (no ``camera.smooth``) a point where the pixel or the ADC
+    saturates has NaN statistics (``depth_std_m``, ...) and their gradient is 0, not NaN: an
+    optimiser that skips NaN values (``jnp.nansum``) gets no warning that it left the camera's range.
+    Differentiate a camera with ``smooth=tj.Smooth()``, whose values and gradients are finite
+    everywhere (docs/model.md, "Smooth relaxation"), or hold the points valid
+    (``Result.valid_fraction``, ``full_well_fraction``).
+
     Example::
 
         camera = tj.Camera(tj.Params())
         r = tj.predict(camera, tj.Sweep.linspace("distance", 0.5, 5.0, 10))
         r.depth_std_m                                  # (10,) m
-        tj.predict(camera, scenes.wall(2.0)).depth_std_m   # (rows, cols) m: a frame
+        tj.predict(camera, scenes.wall(1.2)).depth_std_m   # (rows, cols) m: a frame (within 1.87 m)
     """
     from ._analytic import predict as predict_sweep
 
@@ -253,7 +265,7 @@ def predict(camera, scene, *, smooth: Smooth | None = None, pattern: PixelPatter
                                           smooth=camera.smooth, processing=camera.processing)
         return predict_sweep(camera.params, scene, smooth=camera.smooth, pattern=camera.pattern,
                              processing=camera.processing)
-    return camera.prepare().predict(camera.returns(scene))
+    return _said_if_no_good_pixels(camera.prepare().predict(camera.returns(scene)))
 
 
 def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frames: int = 0, raw: bool = False,
@@ -301,7 +313,26 @@ def simulate(camera, scene, key: PRNGKeyArray, frames: int = 2000, *, keep_frame
                                            processing=camera.processing)
         return simulate_sweep(camera.params, scene, key, frames, smooth=camera.smooth, pattern=camera.pattern,
                               keep_frames=keep_frames, raw=raw, progress=progress, processing=camera.processing)
-    return camera.expose(scene).render(key, frames, keep_frames=keep_frames, raw=raw, progress=progress)
+    return _said_if_no_good_pixels(camera.expose(scene).render(key, frames, keep_frames=keep_frames, raw=raw,
+                                                               progress=progress))
+
+
+def _said_if_no_good_pixels(frame):
+    """``frame`` (a :class:`tofjax.FrameResult`), with a :class:`tofjax.schema.NoGoodPixelsWarning`
+    when none of its pixels is good: an all-flagged frame (a wall beyond the unambiguity range) reads
+    plausible distances and gives an empty point cloud, and nothing else would say so. Concrete
+    values only (under a transformation the flags are traced)."""
+    if _jit.traced(frame):
+        return frame
+    from ._flags import NoGoodPixelsWarning, flag_fractions, no_good_pixels, no_good_pixels_line
+
+    flags = np.asarray(frame.flags)
+    if flags.size and no_good_pixels(flags):
+        import warnings
+
+        warnings.warn(no_good_pixels_line(flag_fractions(flags), float(frame.result.unambiguity_range_m)),
+                      NoGoodPixelsWarning, stacklevel=3)
+    return frame
 
 
 def _camera(camera, smooth, pattern) -> Camera:

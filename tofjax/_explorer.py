@@ -34,6 +34,7 @@ from __future__ import annotations
 import html
 import logging
 import os
+import re
 import threading
 import warnings
 from pathlib import Path
@@ -96,6 +97,12 @@ _STYLE = "<style>.tofjax-stale{opacity:0.4}</style>"
 _INVALID_BORDER = "2px solid #cc0000"
 _STALE = ("<b style='color:#c60'>&#9888; stale</b>: the settings changed after this run; the summary and "
           "the plots below are of the previous settings. Calculate to update them.")
+
+
+def _plain(markup: str) -> str:
+    """An HTML widget's value as text: ``<br>`` a new line, tags dropped, entities read (what a
+    script prints: ``print(ex.message.value)`` showed ``<span style=...>`` and ``&#x27;``)."""
+    return html.unescape(re.sub(r"<[^>]*>", "", markup.replace("<br>", "\n")))
 
 
 def _error_html(text: str) -> str:
@@ -395,6 +402,10 @@ class Explorer:
     run = property(lambda self: self.state.run, doc="The last run (:class:`tofjax._run.Run`).")
     figures = property(lambda self: self.state.figures, doc="Plot name -> Figure of the last run.")
     headlines = property(lambda self: self.state.headlines, doc="The last run's headline numbers.")
+    message_text = property(lambda self: _plain(self.message.value),
+                            doc="The message beside Calculate as plain text (its widget holds HTML).")
+    summary_text = property(lambda self: _plain(self.summary.value),
+                            doc="The last run's summary as plain text, a line each (its widget holds HTML).")
 
     def _say(self, message: Message | None) -> None:
         """Show what an action did (or why not); the Overwrite button while one waits for it."""

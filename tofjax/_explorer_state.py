@@ -337,18 +337,23 @@ def summary(run, numbers: dict) -> Summary:
         ranges = f"unambiguity range {float(r.unambiguity_range_m):.4g} m"
     lines = [f"{len(valid)} samples ({kind}); {noise}; {np.mean(valid == 1):.0%} of the samples fully valid; "
              f"{ranges}"]
+    from .report import headline_figure
+
     n = numbers
 
-    def at(key, unit):
-        return "not reached" if n.get(key) is None else f"{n[key]:.3g} {unit}"
+    def at(key, unit):  # the figure and where it comes from (this sweep, or an analytic scan)
+        value, source = headline_figure(n, key, unit, digits=3)
+        return f"{value} ({source})"
 
     lines.append(
         f"at the nominal point ({n['nominal_distance_m']:.3g} m, {n['nominal_illuminance_lx']:.3g} lx, "
-        f"{1e3 * n['nominal_integration_time_s']:.3g} ms, {n['nominal_temperature_c']:.3g} °C): depth noise {1e3 * n['nominal_depth_std_m']:.3g} mm "
-        f"({100 * n['nominal_relative_depth_std']:.2g} %), amplitude {n['nominal_amplitude_lsb']:.4g} LSB. "
-        f"Valid from: {at('valid_from_m', 'm')}; 1 % depth noise at: {at('relative_noise_1pct_at_m', 'm')}; "
-        f"2 % at: {at('relative_noise_2pct_at_m', 'm')}; SBI engages at: {at('sbi_engages_at_lx', 'lx')}; "
-        f"the pixel saturates at: {at('pixel_saturates_at_lx', 'lx')}")
+        f"{1e3 * n['nominal_integration_time_s']:.3g} ms, {n['nominal_temperature_c']:.3g} °C; analytic): depth noise "
+        f"{1e3 * n['nominal_depth_std_m']:.3g} mm ({100 * n['nominal_relative_depth_std']:.2g} %), amplitude "
+        f"{n['nominal_amplitude_lsb']:.4g} LSB.")
+    lines.append(f"Valid from: {at('valid_from_m', 'm')}; 1 % depth noise at: {at('relative_noise_1pct_at_m', 'm')}; "
+                 f"2 % at: {at('relative_noise_2pct_at_m', 'm')}.")
+    lines.append(f"SBI engages at: {at('sbi_engages_at_lx', 'lx')}; the pixel saturates at: "
+                 f"{at('pixel_saturates_at_lx', 'lx')}.")
     from ._camera import Camera
     from ._timing import summary_lines
 

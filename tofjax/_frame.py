@@ -18,6 +18,7 @@ does not depend on the frames' noise (a scene's charges and the frames' per-pixe
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import weakref
 
@@ -296,8 +297,14 @@ def prepare_camera(params: Params, settings: FrameSettings, pattern: PixelPatter
     (``sample``, ``noise_image``, ``predict``, ``prepare``, ``render``), each call costing only the
     scene's exposure and the chain after it (:meth:`tofjax.Camera.prepare`)."""
     _check_camera(params, settings, pattern)
-    return _prepare_camera(params, settings, pattern, smooth, frame_shape(params), lens_distortion(settings), None,
-                           processing)
+    shape = frame_shape(params)
+    if pattern is not None:
+        for field in dataclasses.fields(pattern):
+            if (got := tuple(jnp.shape(getattr(pattern, field.name)))) != shape:
+                raise ValueError(f"pattern.{field.name} has shape {got}, the camera {shape[0]} x "
+                                 f"{shape[1]} pixels: allowed a pattern of the camera's shape, "
+                                 f"tj.draw_pattern(params, settings, {shape})")
+    return _prepare_camera(params, settings, pattern, smooth, shape, lens_distortion(settings), None, processing)
 
 
 def frame_exposure(chain: Chain, settings: FrameSettings, returns: Returns, pattern: PixelPattern) -> Exposure:

@@ -1,4 +1,4 @@
-"""A frame's scene named in words: a built-in scene with its parameters (``wall:distance_m=2``) or an
+"""A frame's scene named in words: a built-in scene with its parameters (``wall:distance_m=1.5``) or an
 NPZ file (a depth map or a renderer's returns), checked and made into returns with one line per
 mistake; what ``tofjax render --scene`` and the explorer's Frame tab read."""
 

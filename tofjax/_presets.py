@@ -157,9 +157,9 @@ PRESETS: dict[str, Preset] = _load()
 
 def preset(name: str) -> Preset:
     """The preset called ``name``; a ``ValueError`` naming the allowed names otherwise."""
-    if name not in PRESETS:
+    if not isinstance(name, str) or name not in PRESETS:
         raise ValueError(f"preset = {name!r} is not known: allowed " + ", ".join(repr(p) for p in PRESETS)
-                         + suggest(name, PRESETS))
+                         + (suggest(name, PRESETS) if isinstance(name, str) else ""))
     return PRESETS[name]
 
 

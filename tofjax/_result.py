@@ -177,7 +177,7 @@ class Result(eqx.Module):
         """Depth standard deviation over the true distance (Figs 5.11b, 5.13, 5.16b)."""
         return _ratio(self.depth_std_m, self.distance_m)
 
-    def caveat_summary(self) -> list[str]:
+    def caveat_lines(self) -> list[str]:
         """One line per caveat that applies somewhere: how many points, and why (empty: none)."""
         if self.caveats is None:
             return []
@@ -188,6 +188,17 @@ class Result(eqx.Module):
             if count:
                 lines.append(f"{count} of {codes.size} points: {text}")
         return lines
+
+    def caveat_summary(self) -> str:
+        """Where the closed form does not hold, as text to print: :meth:`caveat_lines` one per line,
+        or one sentence saying that it holds at every point (or, for a Monte Carlo result, that
+        caveats are the analytic path's)."""
+        lines = self.caveat_lines()
+        if lines:
+            return "\n".join(lines)
+        if self.caveats is None:
+            return "no caveats: a Monte Carlo result (caveats are the analytic path's, tj.predict)"
+        return "no caveats: the closed form holds at every point"
 
 
 def _per_call(x: Array, like: Array) -> Array:

@@ -66,9 +66,10 @@ class Returns(eqx.Module):
         """Shapes always; values (:data:`RETURNS_RANGES`) when concrete: a NaN path or a negative
         radiance is refused where it is made, naming the array and the element."""
         p, r = self.path_m, self.radiance_per_w
-        if p.ndim != 3 or p.shape != r.shape:
+        if p.ndim != 3 or p.shape != r.shape or p.shape[-1] < 1:
             raise ValueError(f"tofjax.Returns: path_m has shape {p.shape} and radiance_per_w {r.shape}: allowed "
-                             "equal shapes (rows, cols, returns)")
+                             "equal shapes (rows, cols, returns) with at least one return per pixel (a pixel without "
+                             "light: one return of radiance 0)")
         tags = self.phase_image
         if tags is not None and (len(tags) != p.shape[-1] or not all(isinstance(j, int) and j >= -1 for j in tags)):
             raise ValueError(f"tofjax.Returns: phase_image = {tags!r}: allowed one phase image (0, 1, ...; -1: every one) "

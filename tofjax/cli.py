@@ -225,16 +225,18 @@ def _summary(result, elapsed_s: float, out: Path, timing: list[str]) -> str:
     def cell(x, fmt):
         return "-" if np.isnan(float(x)) else format(float(x), fmt)
 
-    table = Table((f"{axis.name} [{axis.display_unit}]", "unwrapped [m]", "depth std [mm]", "rel. std [%]",
+    # The swept quantity in the unit --from and --to take (seconds, not the plots' milliseconds).
+    unit = axis.display_unit if axis.display_scale == 1.0 else axis.unit
+    table = Table((f"{axis.name} [{unit}]", "unwrapped [m]", "depth std [mm]", "rel. std [%]",
                    "amplitude [LSB]", "valid [%]"), tuple(
-        (format(values[i] * axis.display_scale, ".4g"), cell(result.depth_unwrapped_mean_m[i], ".4f"),
+        (format(values[i], ".4g"), cell(result.depth_unwrapped_mean_m[i], ".4f"),
          cell(1e3 * result.depth_std_m[i], ".3f"), cell(100 * result.depth_std_m[i] / dist[i], ".3f"),
          cell(result.amplitude_mean_lsb[i], ".1f"), cell(100 * result.valid_fraction[i], ".1f")) for i in rows))
     method = f"Monte Carlo, {result.n_frames} frames/sample" if result.method == "mc" else "analytic"
     lines = [f"{len(values)} samples ({method}); unambiguity range {float(result.unambiguity_range_m):.4f} m; "
              f"{elapsed_s:.2f} s; wrote {out}"]
     lines.extend(timing)
-    lines.extend(f"note: {line}" for line in result.caveat_summary())
+    lines.extend(f"note: {line}" for line in result.caveat_lines())
     du = float(result.unambiguity_range_m)
     spacing = float(np.max(np.abs(np.diff(dist)))) if len(dist) > 1 else 0.0
     if result.sweep_variable == "distance" and spacing > du / 2:
@@ -308,7 +310,7 @@ def _simulate(args) -> int:
     if args.check:
         print(f"plan: {args.sweep} sweep, {plan}; into {out}" + (f" and {args.report}" if args.report else ""))
         return 0
-    enable_compilation_cache()
+    enable_compilation_cache(notice=False)  # the command says it (compiling, below), or --quiet does not
     on_interrupt(untouched_note(out, args.report))
     label = f"simulating {sweep.samples} samples" + (f" x {iterations} frames" if args.method == "mc" else "")
     with reporting(Progress(1, label, unit="chunk", enabled=not args.quiet)), compiling(enabled=not args.quiet):
@@ -397,7 +399,11 @@ def interrupts():
 
 def main(argv: list[str] | None = None) -> int:
     on_interrupt(None)
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    if not (sys.argv[1:] if argv is None else argv):  # `tofjax` alone: what it can do, not an error
+        parser.print_help()
+        return 0
+    args = parser.parse_args(argv)
     from .progress import clear_interrupt
 
     clear_interrupt()
@@ -412,7 +418,7 @@ def _run(args) -> int:
 
     try:
         if getattr(args, "run", None) is not None:  # calibrate, record, ...: they compute, so cache
-            enable_compilation_cache(fast_compile=args.command == "calibrate")
+            enable_compilation_cache(fast_compile=args.command == "calibrate", notice=False)  # a command says it itself
             return args.run(args)
         if args.command == "config":
             from ._config import default_config_text

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._flags import CAMERA_FLAGS, DIAGNOSTIC_FLAGS, FLAG_KEYS, FLAGS, delivered
+from ._flags import CAMERA_FLAGS, DIAGNOSTIC_FLAGS, FLAG_KEYS, FLAGS, delivered, flag_fractions, no_good_pixels_line
 from .outputs import save_figure, write_bytes, write_text
 from .outputs import write_npz as write_npz_file
 
@@ -23,7 +23,7 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-#: Map name -> (title, unit, colour map) of the PNGs.
+#: Map name -> (title, unit, colour map) of the PNGs ("categorical": the flags, :func:`flag_classes`).
 MAPS = {
     "radial_m": ("Measured radial distance", "m", "viridis"),
     "z_m": ("Measured Z depth", "m", "viridis"),
@@ -33,8 +33,53 @@ MAPS = {
     "amplitude_lsb": ("Amplitude", "LSB", "gray"),
     "intensity_e": ("Intensity (mean electrons per tap)", "e-", "gray"),
     "frame_radial_m": ("One noisy frame: radial distance", "m", "viridis"),
-    "flags": ("Flags (bits: frame.npz flag_names)", "-", "tab10"),
+    "flags": ("Flags: one colour per combination present\n(bits: frame.npz flag_names)", "-", "categorical"),
 }
+
+#: The colour of a good (unflagged) pixel and of each flag alone in the flags map (:func:`flag_classes`).
+GOOD_COLOUR = "#e0e0e0"
+FLAG_COLOURS = {1: "#d62728", 2: "#ff7f0e", 4: "#3b3b3b", 8: "#1f77b4", 16: "#9467bd", 32: "#8c564b", 64: "#bcbd22"}
+#: The colours of combinations of flags, in the order of their share of the pixels (then repeated).
+COMBINATION_COLOURS = ("#17becf", "#e377c2", "#2ca02c", "#aec7e8", "#ffbb78", "#98df8a", "#ff9896", "#c5b0d5",
+                       "#c49c94", "#f7b6d2", "#dbdb8d", "#9edae5")
+
+
+def flag_classes(flags: np.ndarray) -> list[tuple[int, str, str]]:
+    """The flags map's classes: one per combination of flags present, ``(code, label, colour)``; good
+    pixels (code 0) first in :data:`GOOD_COLOUR`, each flag alone in its own colour
+    (:data:`FLAG_COLOURS`), combinations in :data:`COMBINATION_COLOURS`; labels name the flags and
+    their share of the pixels (``"mixed + wrapped: 0.4 %"``)."""
+    codes, counts = np.unique(np.asarray(flags, dtype=np.int64), return_counts=True)
+    order = sorted(zip(codes.tolist(), counts.tolist(), strict=True), key=lambda cc: (cc[0] != 0, -cc[1], cc[0]))
+    out, spare = [], iter(COMBINATION_COLOURS * (1 + len(order) // len(COMBINATION_COLOURS)))
+    for code, count in order:
+        names = [FLAG_KEYS[bit].replace("_", " ") for bit in FLAGS if code & bit]
+        label = " + ".join(names) if names else "good (no flag)"
+        colour = GOOD_COLOUR if code == 0 else FLAG_COLOURS.get(code) or next(spare)
+        out.append((code, f"{label}: {100 * count / np.size(flags):.3g} %", colour))
+    return out
+
+
+def flag_rgb(flags: np.ndarray, classes: list[tuple[int, str, str]]) -> np.ndarray:
+    """The flags as an RGB image ``(rows, cols, 3)`` in their classes' colours (:func:`flag_classes`)."""
+    from matplotlib.colors import to_rgb
+
+    flags = np.asarray(flags, dtype=np.int64)
+    rgb = np.zeros(flags.shape + (3,))
+    for code, _, colour in classes:
+        rgb[flags == code] = to_rgb(colour)
+    return rgb
+
+
+def _show_flags(fig, ax, flags: np.ndarray, fontsize: float = 8) -> None:
+    """The flags map on ``ax``: every combination present in its colour, a legend naming each (a
+    categorical map: on a colour scale the bits' sums read as numbers, wrapped pixels blue as good)."""
+    from matplotlib.patches import Patch
+
+    classes = flag_classes(flags)
+    ax.imshow(flag_rgb(flags, classes), interpolation="nearest")
+    fig.legend(handles=[Patch(facecolor=colour, edgecolor="0.5", label=label) for _, label, colour in classes],
+               loc="outside right upper", fontsize=fontsize, title="pixels", title_fontsize=fontsize, frameon=False)
 
 
 def frame_arrays(frame, predicted=None) -> dict[str, np.ndarray]:
@@ -179,7 +224,8 @@ def write_png16(path, image: np.ndarray) -> Path:
 
 
 def write_png(path, image: np.ndarray, title: str, unit: str, cmap: str = "viridis", vmin=None, vmax=None) -> Path:
-    """One image as a PNG colour map with a colour bar and title (pixel (0, 0) at the top left)."""
+    """One image as a PNG colour map with a colour bar and title (pixel (0, 0) at the top left);
+    ``cmap="categorical"``: the flags, one colour per combination present and a legend naming them."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -187,14 +233,18 @@ def write_png(path, image: np.ndarray, title: str, unit: str, cmap: str = "virid
 
     image = np.asarray(image, dtype=float)
     rows, cols = image.shape
-    fig, ax = plt.subplots(figsize=(6.4, 6.4 * rows / cols + 0.6), dpi=110, layout="constrained")
-    if vmin is None:
-        vmin, vmax = color_limits(image)
-    shown = ax.imshow(np.ma.masked_invalid(image), cmap=cmap, vmin=vmin, vmax=vmax, interpolation="nearest")
+    width = 6.4 + (2.6 if cmap == "categorical" else 0.0)  # the flags' legend beside the map
+    fig, ax = plt.subplots(figsize=(width, 6.4 * rows / cols + 0.6), dpi=110, layout="constrained")
+    if cmap == "categorical":  # the flags: a legend of the combinations present, not a colour bar
+        _show_flags(fig, ax, image.astype(np.int64))
+    else:
+        if vmin is None:
+            vmin, vmax = color_limits(image)
+        shown = ax.imshow(np.ma.masked_invalid(image), cmap=cmap, vmin=vmin, vmax=vmax, interpolation="nearest")
+        fig.colorbar(shown, ax=ax, label=unit, shrink=0.85)
     ax.set_title(title)
     ax.set_xlabel("column")
     ax.set_ylabel("row")
-    fig.colorbar(shown, ax=ax, label=unit, shrink=0.85)
     save_figure(fig, path)
     plt.close(fig)
     return Path(path)
@@ -226,7 +276,7 @@ def map_images(arrays: dict[str, np.ndarray]) -> dict[str, tuple]:
     out = {}
     for name, image in images.items():
         title, unit, cmap = MAPS[name]
-        limits = (0, 2 * max(FLAGS) - 1) if name == "flags" else (None, None)
+        limits = (None, None)
         if name == "error_mm":  # the delivered pixels' errors set the scale (not the few a camera drops)
             shown = image[np.isfinite(image) & delivered(arrays["flags"])]
             finite = np.abs(shown if shown.size else image[np.isfinite(image)])
@@ -252,12 +302,15 @@ def frame_figure(arrays: dict[str, np.ndarray], names: tuple[str, ...] = ("radia
     for ax, name in zip(axes[0], shown, strict=True):
         image, title, unit, cmap, (vmin, vmax) = images[name]
         image = np.asarray(image, dtype=float)
-        if vmin is None:
-            vmin, vmax = color_limits(image)
-        im = ax.imshow(np.ma.masked_invalid(image), cmap=cmap, vmin=vmin, vmax=vmax, interpolation="nearest")
         ax.set_title(title, fontsize=8)
         ax.set_xticks([])
         ax.set_yticks([])
+        if cmap == "categorical":
+            _show_flags(fig, ax, image.astype(np.int64), fontsize=6)
+            continue
+        if vmin is None:
+            vmin, vmax = color_limits(image)
+        im = ax.imshow(np.ma.masked_invalid(image), cmap=cmap, vmin=vmin, vmax=vmax, interpolation="nearest")
         fig.colorbar(im, ax=ax, label=unit, shrink=0.8)
     return fig
 
@@ -288,7 +341,8 @@ def headlines(arrays: dict[str, np.ndarray]) -> dict[str, float]:
     err = distance_error_m(arrays)[good]
     out = {
         "pixels": float(flags.size), "good_fraction": float(np.mean(good)),
-        **{f"{FLAG_KEYS[bit]}_fraction": float(np.mean((flags & bit) != 0)) for bit in FLAGS},
+        "unambiguity_range_m": float(arrays["unambiguity_range_m"]),
+        **{f"{FLAG_KEYS[bit]}_fraction": share for bit, share in flag_fractions(flags).items()},
         **{f"{FLAG_KEYS[bit]}_good_fraction": float(np.mean((flags[good] & bit) != 0)) if good.any() else 0.0
            for bit in FLAGS if bit & DIAGNOSTIC_FLAGS},
         "median_depth_std_mm": float(1e3 * np.nanmedian(arrays["depth_std_m"][good])) if good.any() else float("nan"),
@@ -310,13 +364,18 @@ def headline_text(numbers: dict, monte_carlo: bool = True) -> str:
     delivers): their share, and the camera's flags that took the others; median noise, the median of
     the per-pixel ratio of analytic to Monte Carlo noise (the agreement; the ratio of the two medians
     is not), median |error|; and the truth's diagnostics among them (mixed, wrapped: delivered,
-    biased). ``monte_carlo``: whether the noise is the frames' (else the analytic frame's alone)."""
+    biased). ``monte_carlo``: whether the noise is the frames' (else the analytic frame's alone). A frame of which no pixel is
+    good (nothing delivered, or every delivered pixel wraps) is one line that says so and why
+    (:func:`tofjax._flags.no_good_pixels_line`)."""
     import math
 
     def num(key, fmt):
         x = numbers.get(key, math.nan)
         return "-" if not math.isfinite(x) else format(x, fmt)
 
+    if not numbers["good_fraction"] > 0 or numbers.get("wrapped_good_fraction", 0.0) >= 1.0:  # one line
+        return no_good_pixels_line({bit: numbers[f"{name}_fraction"] for bit, name in FLAG_KEYS.items()},
+                                   numbers.get("unambiguity_range_m"))
     flagged = [f"{100 * numbers[f'{FLAG_KEYS[bit]}_fraction']:.1f} % {FLAG_KEYS[bit].replace('_', ' ')}"
                for bit in FLAGS if bit & CAMERA_FLAGS and numbers[f"{FLAG_KEYS[bit]}_fraction"] > 0]
     diagnosed = [f"{100 * numbers[f'{FLAG_KEYS[bit]}_good_fraction']:.1f} % {FLAG_KEYS[bit].replace('_', ' ')}"
@@ -336,6 +395,8 @@ def write_report(directory, arrays: dict[str, np.ndarray], pngs: list[Path], tit
     from .report import Figure, Section, Summary, Table
 
     numbers = headlines(arrays)
+    if not numbers["good_fraction"] > 0:
+        lines = [*lines, headline_text(numbers)]
     summary = Summary(title, list(lines), [
         Section("Headline numbers", [Table(("number", "value"), tuple((k, f"{v:.4g}") for k, v in numbers.items()))]),
         Section("Images", [Figure(p.name, p.read_bytes()) for p in pngs]),

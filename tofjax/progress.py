@@ -215,28 +215,33 @@ class compiling:  # noqa: N801 - used as a context manager, like a function
     has spent more than :data:`COMPILING_NOTICE_S` compiling during the block (a cold run spends
     most of its first seconds there, and would otherwise say nothing). It listens to JAX's own
     monitoring events: a persistent-cache miss starts a compilation, the backend's compile duration
-    ends one; a thread looks every 0.1 s. ``enabled=False`` (``--quiet``) turns it off."""
+    ends one; a thread looks every 0.1 s while one is under way (and after each one ends), and waits
+    otherwise. ``enabled=False`` (``--quiet``) turns it off; ``stream``: default the standard error
+    of the moment it speaks. Scripts and notebooks get it from :func:`compile_notice`."""
 
     def __init__(self, *, enabled: bool = True, stream=None, notice_s: float | None = None):
         self.enabled = enabled
-        self.stream = sys.stderr if stream is None else stream
+        self.stream = stream
         self.notice_s = COMPILING_NOTICE_S if notice_s is None else notice_s
         self.announced = False
         self._spent = 0.0
         self._since: float | None = None
         self._lock = threading.Lock()
         self._stop = threading.Event()
+        self._wake = threading.Event()  # a compilation started or ended, or the block ends
 
     def _event(self, event: str, **_kwargs) -> None:
         if event == "/jax/compilation_cache/cache_misses":
             with self._lock:
                 self._since = time.monotonic()
+                self._wake.set()
 
     def _duration(self, event: str, duration_s: float, **_kwargs) -> None:
         if event == "/jax/core/compile/backend_compile_duration":
             with self._lock:
                 self._spent += duration_s
                 self._since = None
+                self._wake.set()
 
     def spent_s(self) -> float:
         """Seconds spent compiling so far (a compilation under way included)."""
@@ -244,15 +249,22 @@ class compiling:  # noqa: N801 - used as a context manager, like a function
             return self._spent + (time.monotonic() - self._since if self._since is not None else 0.0)
 
     def _watch(self) -> None:
-        while not self._stop.wait(0.1):
+        while True:
+            self._wake.wait()
+            if self._stop.is_set():
+                return
             if self.spent_s() > self.notice_s:
                 import jax
 
                 cached = bool(jax.config.jax_compilation_cache_dir)
                 print("compiling (first run; cached for next time) ..." if cached else
-                      "compiling (the compilation cache is off) ...", file=self.stream, flush=True)
+                      "compiling (the compilation cache is off) ...", file=self.stream or sys.stderr, flush=True)
                 self.announced = True
                 return
+            with self._lock:
+                if self._since is None:  # nothing under way: wait for the next compilation
+                    self._wake.clear()
+            self._stop.wait(0.1)
 
     def __enter__(self) -> compiling:
         if self.enabled:
@@ -269,10 +281,29 @@ class compiling:  # noqa: N801 - used as a context manager, like a function
             from jax import monitoring
 
             self._stop.set()
+            self._wake.set()
             self._thread.join()
             with contextlib.suppress(Exception):  # already unregistered: nothing to do
                 monitoring.unregister_event_listener(self._event)
                 monitoring.unregister_event_duration_listener(self._duration)
+
+
+#: The notice of :func:`compile_notice` (``None``: off).
+_notice: compiling | None = None
+
+
+def compile_notice(enabled: bool = True, *, stream=None, notice_s: float | None = None) -> None:
+    """For scripts and notebooks, what the commands say: ``compiling (first run; cached for next
+    time) ...`` on standard error, once in this process, when JAX has spent more than
+    :data:`COMPILING_NOTICE_S` compiling from now on (:class:`compiling`; a cold start of the README's
+    frame snippet compiles for a minute and would otherwise say nothing).
+    :func:`tofjax.enable_compilation_cache` turns it on; ``enabled=False`` turns it off."""
+    global _notice
+    if _notice is not None:
+        _notice.__exit__(None, None, None)
+        _notice = None
+    if enabled:
+        _notice = compiling(stream=stream, notice_s=notice_s).__enter__()
 
 
 class Stages:

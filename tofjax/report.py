@@ -8,13 +8,15 @@ s of blocks: a paragraph (``str``), bullets (``list[str]``), a :class:`Table`, a
 ``<b>|x|[l](u).csv`` shows as written, never as markup).
 
 The simulation report (:func:`write_report`): PNGs of every plot that applies to the sweep, and
-``report.html`` with the configuration, headline figures and the run's timing. Headline figures come
-from the analytic path (hard mode) on dedicated scans, so they do not depend on the chosen sweep's
-range: depth noise at the nominal point; the shortest distance with valid data (below it the pixel or
-the ADC saturates); the distances where the relative depth noise crosses 1 % and 2 % (0.05-50 m); the
-background illuminance where SBI engages and where the pixel saturates (0-200 klx at the nominal
-distance); and, from the run itself, the dominant noise source in each region of the photon transfer
-curve.
+``report.html`` with the configuration, headline figures and the run's timing. Each headline figure
+says where it comes from (:func:`headline_figure`): depth noise and amplitude at the nominal point
+(the analytic path, hard mode); the shortest distance with valid data (below it the pixel or the
+ADC saturates) and the distances where the relative depth noise reaches 1 % and 2 %, from the run's
+own sweep when it is a distance sweep (its first sample where they hold, "beyond the sweep" where
+none does), else from an analytic scan over 0.05-50 m; the background illuminance where SBI engages
+and where the pixel saturates, from the run's sweep when it is an illuminance sweep, else from an
+analytic scan over 0-200 klx at the nominal distance; and, from the run itself, the dominant noise
+source in each region of the photon transfer curve.
 """
 
 from __future__ import annotations
@@ -214,7 +216,73 @@ def headlines(params, result) -> dict:
     out["sbi_engages_at_lx"] = _first(lux, at("sbi_active_fraction", lo, None) > 0) if params.pixel.sbi else None
     out["pixel_saturates_at_lx"] = _first(lux, at("pixel_saturated_fraction", lo, None) > 0)
     out["dominant_noise"] = dominant_noise(result)
+    out["sbi"] = bool(params.pixel.sbi)
+    out["from_sweep"] = sweep_figures(result, sbi=out["sbi"])
+    values = np.asarray(result.sweep_values, dtype=float).reshape(-1)
+    out["sweep"] = {"variable": result.sweep_variable, "method": result.method, "from": float(values.min()),
+                    "to": float(values.max())}
     return out
+
+
+_DISTANCE_SCAN = "analytic scan over 0.05-50 m at the nominal illuminance and integration time"
+_ILLUMINANCE_SCAN = "analytic scan over 0-200 klx at the nominal distance and integration time"
+#: Headline figure -> (the sweep axis it lies on, the analytic scan behind it where the run's sweep
+#: does not cover it): what :func:`sweep_figures` takes from a sweep of that axis.
+FIGURE_AXES = {"valid_from_m": ("distance", _DISTANCE_SCAN), "relative_noise_1pct_at_m": ("distance", _DISTANCE_SCAN),
+               "relative_noise_2pct_at_m": ("distance", _DISTANCE_SCAN),
+               "sbi_engages_at_lx": ("illuminance", _ILLUMINANCE_SCAN),
+               "pixel_saturates_at_lx": ("illuminance", _ILLUMINANCE_SCAN)}
+
+
+def sweep_figures(result, sbi: bool = True) -> dict[str, tuple[float | None, str]]:
+    """The headline figures (:data:`FIGURE_AXES`) that the run's own sweep covers, from its samples,
+    each ``(value, how)``: ``"at"`` (the first sample where it holds), ``"start"`` (it holds from the
+    sweep's first sample on: at or below it) or ``"beyond"`` (no sample of the sweep: ``None``).
+    Empty for a sweep of another axis."""
+    def first(mask, x):
+        if not np.any(mask):
+            return None, "beyond"
+        i = int(np.argmax(mask))
+        return float(x[i]), "start" if i == 0 else "at"
+
+    x = np.asarray(result.sweep_values, dtype=float).reshape(-1)
+    out: dict[str, tuple[float | None, str]] = {}
+    if result.sweep_variable == "distance":
+        valid = np.asarray(result.valid_fraction).reshape(-1) > 0
+        out["valid_from_m"] = first(valid, x)
+        with np.errstate(invalid="ignore"):
+            rel = np.asarray(result.depth_std_m).reshape(-1) / x
+        for level in (1, 2):
+            out[f"relative_noise_{level}pct_at_m"] = first(valid & (rel >= level / 100), x)
+    elif result.sweep_variable == "illuminance":
+        if sbi:
+            out["sbi_engages_at_lx"] = first(np.asarray(result.sbi_active_fraction).reshape(-1) > 0, x)
+        out["pixel_saturates_at_lx"] = first(np.asarray(result.pixel_saturated_fraction).reshape(-1) > 0, x)
+    return out
+
+
+def headline_figure(h: dict, key: str, unit: str, digits: int = 4) -> tuple[str, str]:
+    """One headline figure of :func:`headlines` as ``(value, where it comes from)``: from the run's
+    sweep where it covers the figure (its first sample where it holds; "at or below" the sweep's
+    start where it holds from there; "beyond the sweep" where no sample reaches it, with the
+    analytic scan's value beside), else from the analytic scan (:data:`FIGURE_AXES`)."""
+    if key == "sbi_engages_at_lx" and not h.get("sbi", True):
+        return "SBI disabled", "the configuration"
+    scan = _fmt(h[key], unit, digits=digits)
+    axis, source = FIGURE_AXES[key]
+    if key not in h.get("from_sweep", {}):
+        return scan, source
+    value, how = h["from_sweep"][key]
+    sweep = h["sweep"]
+    method = "Monte Carlo" if sweep["method"] == "mc" else "analytic"
+    span = f"{sweep['from']:.4g}-{sweep['to']:.4g} {unit}"
+    if how == "at":
+        return _fmt(value, unit, digits=digits), f"this {axis} sweep ({method}): its first sample where it holds"
+    scan_note = f"; the {source} puts it at {scan}"
+    if how == "start":
+        return (f"at or below {_fmt(value, unit, digits=digits)}",
+                f"this {axis} sweep ({method}): it holds from its first sample{scan_note}")
+    return f"beyond the sweep ({span})", f"this {axis} sweep ({method}): no sample reaches it{scan_note}"
 
 
 def dominant_noise(result) -> list[dict]:
@@ -268,28 +336,30 @@ def write_report(directory, config, result, elapsed_s: float, csv_path, multifre
 
     h = headlines(params, result)
     sweep_unit = SWEEP_AXES[result.sweep_variable].unit
+    nominal = "the analytic path (hard mode) at the nominal point"
     rows = [
         ("depth noise at the nominal point", f"{_fmt(h['nominal_depth_std_m'], 'mm', 1e3)} "
          f"({_fmt(h['nominal_relative_depth_std'], '%', 100)}) at {h['nominal_distance_m']:g} m, "
          f"{h['nominal_illuminance_lx']:g} lx, {h['nominal_integration_time_s'] * 1e3:g} ms, "
-         f"{h['nominal_temperature_c']:g} °C"),
-        ("amplitude at the nominal point", _fmt(h["nominal_amplitude_lsb"], "LSB")),
-        ("valid data from (short-range saturation below)", _fmt(h["valid_from_m"], "m")),
-        ("relative depth noise reaches 1 %", _fmt(h["relative_noise_1pct_at_m"], "m")),
-        ("relative depth noise reaches 2 %", _fmt(h["relative_noise_2pct_at_m"], "m")),
-        ("SBI engages at", _fmt(h["sbi_engages_at_lx"], "lx") if params.pixel.sbi else "SBI disabled"),
-        ("pixel saturates at (0-200 klx)", _fmt(h["pixel_saturates_at_lx"], "lx")),
-        ("unambiguity range", _fmt(h["unambiguity_range_m"], "m")),
+         f"{h['nominal_temperature_c']:g} °C", nominal),
+        ("amplitude at the nominal point", _fmt(h["nominal_amplitude_lsb"], "LSB"), nominal),
+        ("valid data from (short-range saturation below)", *headline_figure(h, "valid_from_m", "m")),
+        ("relative depth noise reaches 1 %", *headline_figure(h, "relative_noise_1pct_at_m", "m")),
+        ("relative depth noise reaches 2 %", *headline_figure(h, "relative_noise_2pct_at_m", "m")),
+        ("SBI engages at", *headline_figure(h, "sbi_engages_at_lx", "lx")),
+        ("pixel saturates at", *headline_figure(h, "pixel_saturates_at_lx", "lx")),
+        ("unambiguity range", _fmt(h["unambiguity_range_m"], "m"), "the configuration"),
     ]
     if multifrequency is not None:
-        rows.append(("extended range (multi-frequency)", _fmt(float(multifrequency.extended_range_m), "m")))
-    for line in result.caveat_summary():
-        rows.append(("analytic path caveat", line))
+        rows.append(("extended range (multi-frequency)", _fmt(float(multifrequency.extended_range_m), "m"),
+                     "the configuration"))
+    for line in result.caveat_lines():
+        rows.append(("analytic path caveat", line, "this sweep (analytic)"))
     rows.append(("run time", f"{elapsed_s:.2f} s ({result.method}, {len(np.asarray(result.sweep_values))} samples"
-                             + (f" x {result.n_frames} frames)" if result.n_frames else ")")))
+                             + (f" x {result.n_frames} frames)" if result.n_frames else ")"), "this run"))
     regions = [f"{r['source']}: {r['from']:.4g} - {r['to']:.4g} {sweep_unit}" for r in h["dominant_noise"]]
     summary = Summary(f"tofjax simulation report: {result.sweep_variable} sweep", [f"Data: {csv_path}"], [
-        Section("Headline figures", [Table(("figure", "value"), tuple(rows)),
+        Section("Headline figures", [Table(("figure", "value", "from"), tuple(rows)),
                                      "Dominant noise source along the sweep (photon transfer curve):", regions]),
         Section("Frame timing and eye safety", list(timing)),
         Section("Figures", list(figures)),

