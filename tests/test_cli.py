@@ -152,7 +152,8 @@ def test_the_base_install_needs_no_extra_and_a_command_names_the_one_it_needs(tm
     for name in ("emcee", "corner", "pyusb", "pyftdi", "thorlabs-apt-protocol"):
         assert name not in base
         assert any(name in d for d in extras["fit"] + extras["record"])
-    assert "tofjax[fit,record,notebooks,hdf5]" in extras["test"]
+    assert "tofjax[fit,record,notebooks,hdf5,mujoco,open3d]" in extras["test"]
+    assert "mujoco" not in base and "open3d" not in base  # the renderers are extras (tofjax.renderers)
     example = Path(__file__).parents[1] / "fitting" / "examples"
     script = f"""
 import sys

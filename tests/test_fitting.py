@@ -116,7 +116,8 @@ def test_a_bound_flag_needs_the_data_to_push_the_parameter_there():
     from fitting._least_squares import bound_flags
 
     problem = SimpleNamespace(names=("timing.frame_rate_hz", "pixel.readout_noise_e", "pixel.dark_slope_mean_v_per_s"),
-                              kinds=("both", "both", "both"), lower=np.zeros(3), upper=np.array([1e4, 1e5, 100.0]))
+                              kinds=("both", "both", "both"), lower=np.zeros(3), upper=np.array([1e4, 1e5, 100.0]),
+                              initial=np.array([5.0, 50.0, 1.0]))
     flags = bound_flags(problem, np.array([5.0, 50.0, 1e-6]), np.array([np.inf, 2.0, 0.1]))
     assert [(f["name"], f["bound"]) for f in flags] == [("pixel.dark_slope_mean_v_per_s", "lower")]
     assert flags[0]["message"].startswith("pixel.dark_slope_mean_v_per_s = 1e-06 is at its lower bound 0: the data")
