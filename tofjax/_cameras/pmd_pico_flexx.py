@@ -142,6 +142,17 @@ PRESET = Preset(
                     "(FlowControlStrategyFactory.cpp), 2.35 ms; the frame's eight phase images fit 200 ms either way"),
         "timing.frame_rate_hz": (5.0, "quoted: [royale] ModuleConfigDataPicoFlexxU6.cpp line 34, MODE_9_5FPS_2000: "
                                       "'5u, ...' (frames per second)"),
+        # [scene]: the mode's exposure and the band-pass filter
+        "scene.integration_time_s": (
+            2e-3, "quoted: [royale] ModuleConfigDataPicoFlexxU6.cpp line 34, MODE_9_5FPS_2000: '... 2000u }, 2000u, "
+                  "2000u, 200u,' (the exposure of each raw frame, us; the 200 us grey image is unlit and not modelled)"),
+        "scene.integration_time_per": ("phase_image", "quoted: [royale] ImagerM2450.cpp calcRegExposure: the exposure "
+                                                      "is set per raw frame, one raw frame per phase image"),
+        "scene.filter_half_width_m": (
+            25e-9, "derived: not published (the ambient-light claims imply a band-pass); a band-pass centred for 850 nm "
+                   "must pass the corner's chief ray (36.7 deg from camera.fov_deg), where an interference filter "
+                   "(effective index about 2, a typical value) shifts 4.6 % to the blue: 39 nm of pass band, "
+                   "+-19.5 nm, widened to +-25 nm for the laser's tolerance and thermal drift"),
         # [frame]
         "frame.illumination_falloff_exponent": (
             0.0, "derived: a flat spot over illumination.fov_deg, the profile the power's class 1 estimate and "
