@@ -373,3 +373,14 @@ def test_numbers_show_at_sensible_precision():
     ex = tj.explorer()
     raw = tj.Config().values["camera"]["optical_area_m"][1]  # 172 x 17.5 um in floating point
     assert raw != 0.00301 and ex.fields["camera.optical_area_m"].inputs[1].value == 0.00301
+
+
+def test_the_frame_tabs_default_scene_is_the_readmes_flying_pixel_edge(shared_explorer):
+    """The Frame tab opens on the README's step edge, whose edge falls inside a pixel column
+    (tests/test_readme.py checks that its frame has a column of flying pixels); at edge_x_m = 0 the
+    edge fell between two columns and the default frame showed none."""
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    assert f"tofjax render --scene {shared_explorer.frame_scene.value} " in readme
+    assert "edge_x_m=0.013" in shared_explorer.frame_scene.value

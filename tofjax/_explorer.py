@@ -349,7 +349,8 @@ class Explorer:
         self.derived = w.HTML("")
         self._tab_notes: list = []
         # The Frame tab: a scene's frame, as tofjax render makes it.
-        self.frame_scene = w.Text(value="step_edge:near_m=1,far_m=1.6", description="scene", style=_DESCRIPTION,
+        self.frame_scene = w.Text(value="step_edge:near_m=1,far_m=1.6,edge_x_m=0.013", description="scene",
+                                  style=_DESCRIPTION,
                                   layout=w.Layout(width="520px"))
         self.frame_frames = w.IntText(value=20, description="Monte Carlo frames", style=_DESCRIPTION, layout=_wide())
         self.frame_noise_button = w.Button(description="Noise image", icon="image", button_style="primary",

@@ -82,7 +82,7 @@ def fuse_expected(per: Result, freq: _Frequencies) -> dict[str, Array]:
 
 def _fused_result(per: Result, freq: _Frequencies, fused: dict, frames: dict | None = None) -> Result:
     """The first frequency's result with the distance fields fused (module docstring)."""
-    first = jax.tree_util.tree_map(lambda x: x[0], per)
+    first = _at(per, 0)
     extra = {} if frames is None else frames
     return dataclasses.replace(
         first, depth_mean_m=fused["depth_mean_m"], depth_std_m=fused["depth_std_m"],
@@ -97,7 +97,10 @@ def _quality(per: FrameQuality, flags: Array) -> FrameQuality:
                         per.max_phase_noise_rad[0], per.min_amplitude_lsb[0])
 
 
+@eqx.filter_jit
 def _at(tree, i: int):
+    """Frequency ``i`` of every leaf, as one program per structure (eagerly, one dispatch per leaf: a
+    prepared frame's 118 took 0.47 s the first time, as one program 0.1 s)."""
     return jax.tree_util.tree_map(lambda x: x[i], tree)
 
 
