@@ -195,3 +195,33 @@ def _calibration_as_promised(out: Path, captured) -> None:
         assert calibrated.values[section][key] == pytest.approx(fitted["estimate"])
     assert main(["simulate", "--config", str(out / "calibrated.toml"), "--sweep", "distance", "--method", "analytic",
                  "--samples", "4", "--out", str(out.parent / "calibrated_sim.csv")]) == 0
+
+
+def test_every_fitting_doc_python_block_runs_and_shows_what_it_says(tmp_path, monkeypatch, capsys):
+    """docs/fitting.md's Python blocks (its bash blocks are the README's commands, run above), each in a
+    namespace of its own, from a folder with the repository's fitting/ beside it: the calibration
+    converges to the example's truth and writes what the command writes; the comparison has one entry
+    per file with finite ratios. In this file, after the README's calibration, so its programs are
+    compiled once."""
+    from tofjax import progress
+
+    (tmp_path / "fitting").symlink_to(ROOT / "fitting", target_is_directory=True)
+    monkeypatch.chdir(tmp_path)
+    blocks = re.findall(r"```python\n(.+?)\n```", (ROOT / "docs" / "fitting.md").read_text(), re.S)
+    assert len(blocks) == 2
+    namespaces = []
+    try:
+        for i, text in enumerate(blocks):
+            assert "tj.enable_compilation_cache()" in text, f"docs/fitting.md block {i + 1}: a cold start is silent"
+            namespaces.append({"__name__": "__fitting_doc__"})
+            exec(compile(text, f"docs/fitting.md block {i + 1}", "exec"), namespaces[-1])
+    finally:
+        progress.compile_notice(False)
+    ls = namespaces[0]["ls"]
+    assert ls.converged and ls.estimate[0] == pytest.approx(0.38, abs=3e-3)
+    assert {"calibrated.toml", "calibration.json", "report.md"} <= {p.name for p in (tmp_path / "calibration-api").iterdir()}
+    comparisons = namespaces[1]["comparisons"]
+    assert len(comparisons) == 3 and all(np.all(np.isfinite(c.ratio("depth_std_m"))) for c in comparisons)
+    written = {p.suffix for p in (tmp_path / "comparison-api").iterdir()}
+    assert {".csv", ".md", ".html", ".png"} <= written
+    assert "Traceback" not in capsys.readouterr().err
