@@ -5,9 +5,11 @@ scene, NPZ/PLY round trips, the render command and sharding over devices.
 
 One small camera (31 x 21 pixels: odd, so a pixel sits on the axis) for every model evaluation."""
 
+import contextlib
 import dataclasses
 import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -501,16 +503,18 @@ def test_render_command_writes_every_output(tmp_path, capsys):
     # (and of raw_convention), are the kept frames: distance to 1e-9 m, amplitude to 1e-12.
     assert data["raw_codes"].shape == data["raw_tap_a_e"].shape == (2, 1, 4, ROWS, COLS)
     assert data["raw_codes"].dtype == np.int32 and data["raw_tap_b_e"].dtype == np.float32
-    d = data["raw_codes"][:, 0] - data["raw_mid_code"]  # (frames, phases, rows, cols)
-    re, im = np.tensordot(data["raw_phase_weights"], d, axes=(1, 1))
+    # docs/model.md's block itself, run where it reads out/frame.npz:
+    block = next(b for b in re.findall(r"```python\n(.+?)\n```", (Path(__file__).parents[1] / "docs" / "model.md")
+                                       .read_text(), re.S) if 'np.load("out/frame.npz")' in b)
+    decoded = {}
+    with contextlib.chdir(tmp_path):
+        exec(compile(block, "docs/model.md, Raw phase images", "exec"), decoded)
     np.testing.assert_allclose(data["raw_phase_weights"], [np.cos(data["raw_phase_steps_rad"]),
                                                            np.sin(data["raw_phase_steps_rad"])], atol=1e-15)
     du = float(data["unambiguity_range_m"])
-    radial = np.mod(np.arctan2(im, re), 2 * np.pi) / (2 * np.pi) * du
-    error = np.mod(radial - data["frames_radial_m"] + du / 2, du) - du / 2  # a reading at the wrap: either end
+    error = np.mod(decoded["radial_m"] - data["frames_radial_m"] + du / 2, du) - du / 2  # a reading at the wrap: either end
     assert np.max(np.abs(error)) < 1e-9
-    np.testing.assert_allclose(data["raw_amplitude_scale"] * np.hypot(re, im), data["frames_amplitude_lsb"],
-                               rtol=1e-12)
+    np.testing.assert_allclose(decoded["amplitude_lsb"], data["frames_amplitude_lsb"], rtol=1e-12)
     assert data["raw_modulation_frequencies_hz"].tolist() == [80.32e6] and "Decoding" in str(data["raw_convention"])
     assert data["predicted_std_m"].shape == (ROWS, COLS)
     delivered = (data["flags"] & tj.schema.CAMERA_FLAGS) == 0  # the camera's own flags decide (issue 50 item 2)
