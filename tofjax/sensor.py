@@ -16,10 +16,10 @@ Example::
     import numpy as np, tofjax as tj
     from tofjax.sensor import ToFSensor
 
-    sensor = ToFSensor(tj.Camera.from_config(tj.preset_config("kinect-v2")), seed=1)
+    sensor = ToFSensor(tj.Camera.from_config(tj.preset_config("melexis-mlx75027")), seed=1)
     for t in np.arange(10) / 30.0:
-        depth = np.full((480, 640), 2.0, dtype=np.float32)          # the simulator's planar depth, m
-        frame = sensor.step(depth, fov_deg=70.0, time_s=t)
+        depth = np.full((600, 800), 1.2, dtype=np.float32)            # the simulator's planar depth, m
+        frame = sensor.step(depth, fov_deg=100.0, time_s=t)           # its buffer: 100 degrees across
         msg = frame.image("depth")                                    # sensor_msgs/Image fields, 32FC1
 """
 
