@@ -33,7 +33,7 @@ from ._framegeometry import _with_interference, frame_rays, frame_shape, intrins
 from ._random import key_words
 from ._returns import direct_returns
 from ._scene import Surface, _facing, dot3
-from ._sensorbuffers import (EDGE_FRACTION, PLANAR_TOLERANCE, buffer_intrinsics, continuity, depth_normals, gather,
+from ._sensorbuffers import (EDGE_FRACTION, PLANAR_TOLERANCE, buffer_intrinsics, continuity, depth_normals,
                              interpolated_inverse_depth, make_plan, planar_depth, same_camera)
 
 #: A depth buffer's conventions (``depth_type``): the planar depth along the optical axis (``"z"`` is
@@ -413,8 +413,8 @@ def _scene(camera, plan, rays, depth, radial, normals, reflectivity, segmentatio
     # Every camera ray (centre first, then the sub-pixel rays): what it meets.
     w_ray, hit = interpolated_inverse_depth(plan, w, surface, along_rows, along_cols)
     t = jnp.where(hit, 1.0 / jnp.where(hit, w_ray, 1.0) / plan.ray_z, jnp.inf)
-    n_ray = gather(n_buffer, plan.nearest)
-    rho_ray = gather(rho_buffer, plan.nearest)
+    n_ray = plan.at_rays(n_buffer)
+    rho_ray = plan.at_rays(rho_buffer)
     sub = slice(0, 1) if t.shape[-1] == 1 else slice(1, None)
     surf = Surface(t[..., sub], n_ray[..., sub, :], rho_ray[..., sub], jnp.ones_like(t[..., sub]), t[..., 0],
                    n_ray[..., 0, :], rho_ray[..., 0])
@@ -463,7 +463,7 @@ def _moving(params, settings, rays, surf, static, motion, radial, plan, z, surfa
         zp, surface_p = planar_depth(previous, radial, plan.buffer_ray_z, opts["max_range_m"])
         same = surface & surface_p & (jnp.abs(z - zp) <= opts["max_depth_change"] * z)
         vz = jnp.where(same, (z - zp) / dt, 0.0)
-    rate = gather(vz, plan.nearest) / plan.ray_z  # along each camera ray
+    rate = plan.at_rays(vz) / plan.ray_z  # along each camera ray
     sub = slice(0, 1) if rate.shape[-1] == 1 else slice(1, None)
     rate_sub, rate_centre = rate[..., sub], rate[..., 0]
     fe, baseline = settings.illumination_falloff_exponent, settings.baseline_m

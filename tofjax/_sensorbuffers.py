@@ -139,7 +139,9 @@ class Plan(eqx.Module):
     position in the cell (0..1 along a row and down a column); ``nearest`` the flat index of the
     nearest buffer pixel; ``ray_z`` each camera ray's z component; ``buffer_ray_z`` ``(b_rows,
     b_cols)`` and ``buffer_rays`` ``(b_rows, b_cols, 3)``, the buffer's own unit rays; ``solid_angle_sr``
-    ``(b_rows, b_cols)`` each buffer pixel's solid angle; ``cols`` (static) the buffer's width."""
+    ``(b_rows, b_cols)`` each buffer pixel's solid angle; ``cols`` (static) the buffer's width;
+    ``identity`` (static): every ray is its own buffer pixel's centre ray (a buffer at the camera's
+    intrinsics, one ray per pixel), which then reads its pixel without a gather."""
 
     corner: Array
     fu: Float[Array, "..."]
@@ -150,6 +152,11 @@ class Plan(eqx.Module):
     buffer_rays: Float[Array, "b_rows b_cols 3"]
     solid_angle_sr: Float[Array, "b_rows b_cols"]
     cols: int = eqx.field(static=True)
+    identity: bool = eqx.field(static=True, default=False)
+
+    def at_rays(self, image: Array) -> Array:
+        """``image`` ``(b_rows, b_cols, ...)`` at each ray's nearest buffer pixel, ``(*rays, ...)``."""
+        return image[:, :, None] if self.identity else gather(image, self.nearest)
 
 
 def _half_field(d: np.ndarray, axis: int) -> float:
@@ -194,9 +201,11 @@ def make_plan(directions: np.ndarray, intrinsics: dict, *, what: str = "the dept
         omega = np.linalg.norm(np.cross(du, dv), axis=-1) * rays[..., 2] ** 3
     else:
         omega = rays[..., 2] ** 3 / (intrinsics["fx"] * intrinsics["fy"])
+    identity = (d.shape[:2] == (rows, cols) and d.shape[2] == 1 and not np.any(fu) and not np.any(fv)
+                and np.array_equal(near.reshape(rows, cols), np.arange(rows * cols).reshape(rows, cols)))
     return Plan(jnp.asarray(j0 * cols + i0, dtype=jnp.int32), jnp.asarray(fu), jnp.asarray(fv),
                 jnp.asarray(near, dtype=jnp.int32), jnp.asarray(d[..., 2]), jnp.asarray(rays[..., 2]),
-                jnp.asarray(rays), jnp.asarray(omega), cols)
+                jnp.asarray(rays), jnp.asarray(omega), cols, bool(identity))
 
 
 def planar_depth(depth: Array, radial: bool, buffer_ray_z: Array, max_range_m) -> tuple[Array, Array]:
@@ -273,6 +282,8 @@ def interpolated_inverse_depth(plan: Plan, w: Array, surface: Array, along_rows:
                                ) -> tuple[Array, Array]:
     """Each ray's inverse planar depth and whether it meets a surface (module docstring): bilinear
     where its cell's four pixels agree, else the nearest pixel's."""
+    if plan.identity:  # every ray on its own pixel's centre: its pixel's value
+        return w[:, :, None], surface[:, :, None]
     c = plan.cols
     i00, i01, i10, i11 = plan.corner, plan.corner + 1, plan.corner + c, plan.corner + c + 1
     cell = (along_rows[:-1, :] & along_rows[1:, :] & along_cols[:, :-1] & along_cols[:, 1:])  # (rows-1, cols-1)
