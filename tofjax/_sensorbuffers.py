@@ -201,7 +201,10 @@ def make_plan(directions: np.ndarray, intrinsics: dict, *, what: str = "the dept
         omega = np.linalg.norm(np.cross(du, dv), axis=-1) * rays[..., 2] ** 3
     else:
         omega = rays[..., 2] ** 3 / (intrinsics["fx"] * intrinsics["fy"])
-    identity = (d.shape[:2] == (rows, cols) and d.shape[2] == 1 and not np.any(fu) and not np.any(fv)
+    # Every ray on its own pixel's centre: the weights all snapped to 0 or 1 (1 in the last row and
+    # column, whose cell is the one before), the nearest pixel its own.
+    on_centres = np.all((fu == 0.0) | (fu == 1.0)) and np.all((fv == 0.0) | (fv == 1.0))
+    identity = (d.ndim == 4 and d.shape[:2] == (rows, cols) and d.shape[2] == 1 and bool(on_centres)
                 and np.array_equal(near.reshape(rows, cols), np.arange(rows * cols).reshape(rows, cols)))
     return Plan(jnp.asarray(j0 * cols + i0, dtype=jnp.int32), jnp.asarray(fu), jnp.asarray(fv),
                 jnp.asarray(near, dtype=jnp.int32), jnp.asarray(d[..., 2]), jnp.asarray(rays[..., 2]),
