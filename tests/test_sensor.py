@@ -243,6 +243,38 @@ def test_motion_is_tofjax_moving_depth_map():
     np.testing.assert_allclose(np.asarray(still.path_m)[..., 0], np.asarray(cam.returns(depth).path_m)[..., 0])
 
 
+def test_a_stack_of_buffers_is_tofjax_moving_scene():
+    """A step edge moving sideways (1.37 pixels per phase image), rendered by tofjax's ray caster at
+    each of the sensor's instants_s(2) (4 phase images, 2 instants each): the sensor's returns are
+    camera.returns(tj.scenes.moving(edge, ..., substeps=2))'s, path for path, each tagged with its
+    phase image (the pixels the edge sweeps see both surfaces, each in its own phase images); the
+    truth is the buffer nearest the stamp's. A stack of another length, or with a velocity, is refused."""
+    cam = _camera()
+    sensor = ToFSensor(cam, fixed_pattern=False)
+    intr = sensor.intrinsics
+    times = sensor.instants_s(2)
+    assert times.shape == (8,) and np.allclose(times, -times[::-1]) and np.all(np.diff(times) > 0)
+    v = 1.37 / float(np.diff(times[::2]).mean()) / intr["fx"]  # m/s at 1 m: 1.37 pixels per phase image (no ray on the edge)
+    scene = tj.scenes.moving(tj.scenes.step_edge(1.0, 1.6), [v, 0.0, 0.0], substeps=2)
+    own = cam.returns(scene)
+    casts = [_cast(scene.at(t), intr) for t in times]
+    depth, normals, rho = (np.stack([c[i] for c in casts]) for i in range(3))
+    mine = sensor.returns(depth, depth_type="radial", normals=normals, reflectivity=rho)
+    assert mine.phase_image == own.phase_image
+    np.testing.assert_allclose(np.asarray(mine.path_m), np.asarray(own.path_m), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(np.asarray(mine.radiance_per_w), np.asarray(own.radiance_per_w), rtol=1e-9)
+    path = np.where(np.asarray(own.radiance_per_w) > 0, np.asarray(own.path_m), np.nan)
+    swept = np.nanmax(path, axis=-1) - np.nanmin(path, axis=-1) > 0.5
+    assert swept.sum(axis=1).min() >= 4  # every row: a band of pixels that see both surfaces during the frame
+    np.testing.assert_allclose(np.asarray(mine.radial_m), casts[3][0], rtol=1e-12)
+    frame = sensor.step(depth, depth_type="radial", normals=normals, reflectivity=rho)
+    assert frame.delivered.mean() > 0.9
+    with pytest.raises(ValueError, match=r"one per instant of sensor.instants_s\(substeps\), n x substeps = 4, 8"):
+        sensor.step(depth[:5], depth_type="radial")
+    with pytest.raises(ValueError, match="a stack of buffers .* is the motion"):
+        sensor.step(depth, depth_type="radial", velocity_m_per_s=1.0)
+
+
 def test_a_preset_of_several_frequencies_and_processing():
     """kinect-v2 (three frequencies, calibration and a spatial filter) on the small array: the fused
     frame is tofjax's own noisy frame of the step's key, the raw phase images come per frequency."""

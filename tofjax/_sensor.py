@@ -30,6 +30,7 @@ from ._flags import (CAMERA_FLAGS, FLAG_INVALIDATED, FLAG_LOW_AMPLITUDE, FLAG_LO
 from ._frame import _bit, _point_charges, _sweep, scene_flags
 from ._frames import draw_delivered
 from ._framegeometry import _with_interference, frame_rays, frame_shape, intrinsics as camera_intrinsics
+from ._motion import MAX_SUBSTEPS
 from ._random import key_words
 from ._returns import direct_returns
 from ._scene import Surface, _facing, dot3
@@ -232,6 +233,23 @@ class ToFSensor:
             plan = self._plans[key] = make_plan(self._directions, buffer)
         return plan
 
+    def instants_s(self, substeps: int = 1) -> np.ndarray:
+        """The times, s from a frame's stamp, at which to render a stack of buffers for one step
+        (``step(depth=stack)``, ``stack[i]`` the scene at ``instants_s(substeps)[i]``): the centres of
+        ``substeps`` equal slices of each of the camera's phase images (tofjax's motion model,
+        docs/model.md "A camera in time: motion"; a camera of several frequencies: the first's n
+        phase images, which every frequency sees), n x ``substeps`` times in order. Each instant is
+        exposed to its own buffer: what moves across the image during the frame (a moving edge)
+        is seen where it stands at each phase image."""
+        from ._motion import instants_s
+
+        from ._motion import MovingScene
+
+        MovingScene.check_substeps(substeps, "ToFSensor.instants_s")
+        p = self.camera.params
+        return np.asarray(instants_s(int(p.pixel.n_phases), p.scene.integration_time_s, p.timing.readout_time_s,
+                                     int(substeps))).reshape(-1)
+
     def step(self, depth, *, intrinsics=None, fov_deg=None, depth_type: str = "planar", normals=None,
              normals_frame: str = "tofjax", reflectivity=None, segmentation=None, reflectivity_table=None,
              velocity_m_per_s=None, previous_depth=None, time_s: float | None = None, raw: bool = False,
@@ -256,7 +274,12 @@ class ToFSensor:
           camera): the depth then moves over the frame's phase images (docs/model.md, "A camera in
           time: motion"); the velocity from ``previous_depth`` is its change over the time since the
           previous step (``time_s`` minus its stamp, else the camera's frame period), 0 where either
-          holds no surface or the depth changed by more than ``max_depth_change`` of itself.
+          holds no surface or the depth changed by more than ``max_depth_change`` of itself. Or a
+          *stack* of buffers, ``depth`` ``(instants, rows, cols)`` (and ``normals``, ``segmentation``,
+          a ``reflectivity`` image likewise): the scene rendered at each of :meth:`instants_s`'
+          times, each instant of the exposure seeing its own buffer, so that what moves across the
+          image (an edge, an arm swinging by) is exposed where it stands at each phase image; the
+          truth and the two-bounce light are the buffer's nearest the stamp.
         - ``time_s``: the buffer's time (the frame's stamp); ``None``: ``start_time_s`` plus the step's
           number of frame periods (``camera.timing``).
         - ``raw``: also the raw phase images; ``multipath``: add two-bounce light computed from the
@@ -295,16 +318,28 @@ class ToFSensor:
     def _inputs(self, depth, intrinsics, fov_deg, depth_type, normals, normals_frame, reflectivity, segmentation,
                 reflectivity_table, velocity_m_per_s, previous_depth, time_s, stamp, multipath) -> tuple:
         """A step's arguments checked and as the program takes them (:func:`_scene`'s after the camera)."""
-        depth = _float_image(depth, "depth")
+        depth = _float_image(depth, "depth", stack=True)
+        instants = None
+        if depth.ndim == 3:  # one buffer per instant of the frame's exposure (instants_s)
+            n = int(self.camera.params.pixel.n_phases)
+            k = depth.shape[0]
+            if k % n or not 1 <= k // n <= MAX_SUBSTEPS:
+                raise ValueError(f"depth has shape {depth.shape}: a stack of buffers holds one per instant of "
+                                 f"sensor.instants_s(substeps), n x substeps = {n}, {2 * n}, ..., {MAX_SUBSTEPS * n} "
+                                 "(the camera's phase images times its instants in each)")
+            if velocity_m_per_s is not None or previous_depth is not None:
+                raise ValueError("a stack of buffers (one per instant) is the motion: give no velocity_m_per_s or "
+                                 "previous_depth with it")
+            instants = k // n
         if depth_type not in DEPTH_TYPES:
             raise ValueError(f"depth_type = {depth_type!r}: allowed {', '.join(map(repr, DEPTH_TYPES))}")
         radial = DEPTH_TYPES[depth_type]
         near = (depth > 0.0) & (depth < NEAREST_M)
         if np.any(near):
             i = np.unravel_index(int(np.argmax(near)), depth.shape)
-            raise ValueError(f"depth[{i[0]}, {i[1]}] = {float(depth[i])!r} m is nearer than {NEAREST_M} m: allowed a surface "
+            raise ValueError(f"depth[{', '.join(map(str, i))}] = {float(depth[i])!r} m is nearer than {NEAREST_M} m: allowed a surface "
                              "at 1 mm or more, or NaN, inf, 0 for no surface (metres, not millimetres)")
-        buffer = buffer_intrinsics(depth.shape, self.intrinsics, intrinsics, fov_deg)
+        buffer = buffer_intrinsics(depth.shape[-2:], self.intrinsics, intrinsics, fov_deg)
         plan = self.plan(buffer)
         opts = self.options
         if normals is not None:
@@ -332,6 +367,8 @@ class ToFSensor:
                 raise ValueError(f"velocity_m_per_s has shape {velocity.shape}: allowed a finite number or map of the "
                                  f"depth's shape {depth.shape}, |v| <= 1e4 m/s")
             motion = ("velocity", velocity)
+        elif instants is not None:
+            motion = ("instants", instants)
         elif previous_depth is not None:
             previous = _float_image(previous_depth, "previous_depth", depth.shape)
             dt = stamp - self.last_stamp_s if (time_s is not None and self.last_stamp_s is not None) \
@@ -353,13 +390,17 @@ class ToFSensor:
         return camera_info(self.intrinsics, stamp_s=stamp_s, frame_id=self.frame_id, ros_version=ros_version)
 
 
-def _float_image(x, what: str, shape: tuple | None = None) -> np.ndarray:
+def _float_image(x, what: str, shape: tuple | None = None, stack: bool = False) -> np.ndarray:
+    """``x`` as a float64 array of ``shape`` (``None``: ``(rows, cols)``, or with ``stack`` also
+    ``(instants, rows, cols)``); ``ValueError`` naming ``what`` otherwise."""
     a = np.asarray(x)
     if not np.issubdtype(a.dtype, np.floating):
         raise ValueError(f"{what} has dtype {a.dtype}: allowed a float array in metres (a depth in millimetres: divide "
                          "by 1000)" if what.endswith("depth") else f"{what} has dtype {a.dtype}: allowed a float array")
-    if shape is None and a.ndim != 2 or shape is not None and a.shape != shape:
-        raise ValueError(f"{what} has shape {a.shape}: allowed {shape if shape else '(rows, cols)'}")
+    allowed = (2, 3) if stack else (2,)
+    if shape is None and a.ndim not in allowed or shape is not None and a.shape != shape:
+        wanted = shape if shape else "(rows, cols)" + (" or (instants, rows, cols)" if stack else "")
+        raise ValueError(f"{what} has shape {a.shape}: allowed {wanted}")
     return a.astype(np.float64, copy=False)
 
 
@@ -392,12 +433,10 @@ def _first(prepared):
     return prepared._first if hasattr(prepared, "cameras") else prepared
 
 
-def _scene(camera, plan, rays, depth, radial, normals, reflectivity, segmentation, motion, multipath, options):
-    """The returns of a step's buffers on ``camera`` (a single frequency's prepared camera): the
-    buffer onto the rays, their direct returns, their motion, two-bounce light (module docstring)."""
-    opts = dict(options)
-    params, settings = camera.chain.params, camera.settings
-    # The buffer: planar depth, its continuity, points and normals.
+def _buffer(plan, depth, radial, normals, reflectivity, segmentation, opts) -> tuple:
+    """One buffer onto the camera's rays: the :class:`tofjax._scene.Surface` its rays meet (sub-pixel
+    rays, centre ray), and the buffer's own points, normals, reflectivity, surface mask and planar
+    depth."""
     z, surface = planar_depth(depth, radial, plan.buffer_ray_z, opts["max_range_m"])
     w = jnp.where(surface, 1.0 / z, 0.0)
     along_rows, along_cols = continuity(w, surface, segmentation, opts["edge_fraction"], opts["planar_tolerance"])
@@ -418,20 +457,63 @@ def _scene(camera, plan, rays, depth, radial, normals, reflectivity, segmentatio
     sub = slice(0, 1) if t.shape[-1] == 1 else slice(1, None)
     surf = Surface(t[..., sub], n_ray[..., sub, :], rho_ray[..., sub], jnp.ones_like(t[..., sub]), t[..., 0],
                    n_ray[..., 0, :], rho_ray[..., 0])
+    return surf, points, n_buffer, rho_buffer, surface, z
+
+
+def _scene(camera, plan, rays, depth, radial, normals, reflectivity, segmentation, motion, multipath, options):
+    """The returns of a step's buffers on ``camera`` (a single frequency's prepared camera): the
+    buffer onto the rays, their direct returns, their motion, two-bounce light (module docstring).
+    A stack of buffers (``motion = ("instants", m)``): each of the frame's n x m instants exposed to
+    its own buffer (:meth:`ToFSensor.instants_s`), the truth and the two-bounce light the buffer's
+    nearest the frame's centre time."""
+    opts = dict(options)
+    params, settings = camera.chain.params, camera.settings
     fe, baseline = settings.illumination_falloff_exponent, settings.baseline_m
-    static = _with_interference(params, settings, surf, rays, direct_returns(params.illumination, fe, baseline, surf,
-                                                                             rays))
-    returns = static
-    if motion is not None:
-        returns = _moving(params, settings, rays, surf, static, motion, radial, plan, z, surface, opts)
+
+    def direct(surf):
+        return _with_interference(params, settings, surf, rays, direct_returns(params.illumination, fe, baseline, surf,
+                                                                               rays))
+
+    if motion is not None and motion[0] == "instants":
+        from ._motion import _stacked
+
+        def one(i):
+            pick = (lambda x: None if x is None else x[i])  # noqa: E731
+            rho = reflectivity if reflectivity.ndim < depth.ndim else reflectivity[i]
+            return _buffer(plan, depth[i], radial, pick(normals), rho, pick(segmentation), opts)
+
+        k = depth.shape[0]
+        parts = jax.vmap(one)(jnp.arange(k))
+        centre = _centre_instant(params, motion[1])
+        surf, points, n_buffer, rho_buffer, surface, z = jax.tree_util.tree_map(lambda x: x[centre], parts)
+        static = direct(surf)
+        returns = _stacked(jax.vmap(direct)(parts[0]), params.pixel.n_phases, motion[1], static)
+        shape = depth.shape[1:]
+    else:
+        surf, points, n_buffer, rho_buffer, surface, z = _buffer(plan, depth, radial, normals, reflectivity,
+                                                                 segmentation, opts)
+        static = direct(surf)
+        returns = static
+        if motion is not None:
+            returns = _moving(params, settings, rays, surf, static, motion, radial, plan, z, surface, opts)
+        shape = depth.shape
     if multipath:
         from ._buffermultipath import buffer_patches, patch_grid, two_bounce
 
         patches = buffer_patches(points, n_buffer, rho_buffer, surface, plan.buffer_rays, plan.solid_angle_sr,
-                                 patch_grid(opts["multipath_patches"], depth.shape))
-        returns = returns + two_bounce(params.illumination, fe, baseline, patches, t[..., 0], n_ray[..., 0, :],
-                                       rho_ray[..., 0], rays.centre, opts["multipath_bins"])
+                                 patch_grid(opts["multipath_patches"], shape))
+        returns = returns + two_bounce(params.illumination, fe, baseline, patches, surf.centre_t_m,
+                                       surf.centre_normal, surf.centre_reflectivity, rays.centre,
+                                       opts["multipath_bins"])
     return returns
+
+
+def _centre_instant(params, substeps: int) -> int:
+    """The index of the instant nearest the frame's centre time of the n x ``substeps`` instants
+    (:func:`tofjax._motion.instants_s`; of two equally near, the earlier): by symmetry, n x substeps
+    // 2 - 1 for an even count, the middle for an odd one."""
+    count = params.pixel.n_phases * substeps
+    return count // 2 - (1 - count % 2)
 
 
 _returns = _jit.jit(_scene)
