@@ -15,11 +15,21 @@ camera's rays, its returns, one noisy frame with its flags and every output as N
 - ``step_moving``: the camera's buffer with ``previous_depth`` (the motion over the phase images:
   16 instants, 16 returns per pixel);
 - ``tofjax_sample``: tofjax's own frame of the same buffer, ``PreparedCamera.sample(camera.returns(depth),
-  key)`` (the sensor's floor: its step draws the same frame).
+  key)`` (the sensor's floor: its step draws the same frame);
+- ``mujoco_render``: MuJoCo's render of the same scene (the box on a slide joint, moved every step,
+  ``mj_forward``), at the camera's intrinsics (``tofjax.renderers.mujoco.DepthCamera``: the
+  segmentation and the depth pass, headless through ``MUJOCO_GL``, EGL by default: on a machine
+  without a GPU Mesa's llvmpipe);
+- ``loop``, ``loop_multipath``: the simulator's whole loop, MuJoCo's render and the sensor's step of
+  it (``sensor.step(**render.step_arguments())``), without and with two-bounce light.
 
-Targets (issue 51): 224 x 172 >= 100 steps/s without multipath, >= 30 with it.
+Every step after the first runs the compiled program (the cases' traces are counted after their
+warm-up: none; tests/test_sensor.py asserts it).
 
-Run:  python bench/bench_sensor.py [--repeats 15] [--quick] [--out bench/results/bench_sensor.json]
+Targets (issue 51): 224 x 172 >= 100 steps/s without multipath, >= 30 with it; 640 x 480 no slower
+than MuJoCo's render of the same frame.
+
+Run:  python bench/bench_sensor.py [--repeats 15] [--quick] [--out bench/results/bench_sensor.json] [--overwrite]
 """
 
 from __future__ import annotations
@@ -30,6 +40,8 @@ import os
 import platform
 import sys
 from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # headless, before MuJoCo is imported
 
 import equinox as eqx
 import jax
@@ -66,6 +78,21 @@ def buffers(intrinsics: dict) -> list[np.ndarray]:
     return out
 
 
+def mujoco_scene():
+    """tofjax's box_on_floor as MuJoCo geoms, the box on a slide joint along x, seen by camera "tof"
+    at the origin (MuJoCo's camera looks along -z: tofjax's (x, y, z) is MuJoCo's (x, y, -z))."""
+    import mujoco
+
+    h, s, b, wall = 1.0, 0.5, 1.8, 3.0  # tofjax.scenes.box_on_floor's defaults: camera height, box size, distances
+    xml = f"""<mujoco><worldbody><camera name="tof" fovy="45"/>
+      <geom type="box" size="20 0.05 20" pos="0 {-h - 0.05} -10"/>
+      <geom type="box" size="20 20 0.05" pos="0 0 {-wall - 0.05}"/>
+      <body pos="0 {-h + s / 2} {-(b + s / 2)}"><joint name="x" type="slide" axis="1 0 0"/>
+        <geom type="box" size="{s / 2} {s / 2} {s / 2}"/></body></worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    return model, mujoco.MjData(model)
+
+
 def case(size: tuple[int, int], repeats: int) -> dict:
     rows, cols = size
     cam = camera(size)
@@ -84,12 +111,45 @@ def case(size: tuple[int, int], repeats: int) -> dict:
         "tofjax_sample": lambda i: np.asarray(ready(prepared.sample(sensor.camera.returns(own[i % BUFFERS]),
                                                                     jax.random.key(i + 3)).radial_m)),
     }
-    t = interleaved(cases, repeats)
+    import mujoco
+
+    from tofjax.renderers import mujoco as tmj
+
+    model, data = mujoco_scene()
+    view = tmj.DepthCamera(model, "tof", tofjax_camera=cam)
+
+    def render(i):
+        data.qpos[0] = 0.02 * (i % BUFFERS) - 0.08
+        mujoco.mj_forward(model, data)
+        return view.render(data)
+
+    cases.update({
+        "mujoco_render": render,
+        "loop": lambda i: sensor.step(**render(i).step_arguments()),
+        "loop_multipath": lambda i: sensor.step(**render(i).step_arguments(), multipath=True),
+    })
+    traces = []
+
+    def listen(event, duration, **kwargs):
+        if event == "/jax/core/compile/jaxpr_trace_duration":
+            traces.append(kwargs.get("fun_name"))
+
+    for fn in cases.values():  # compile every case, then count what the timed steps trace
+        fn(-1)
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        t = interleaved(cases, repeats)
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+        view.close()
     return {"seconds": t, "steps_per_s": {k: 1.0 / v for k, v in t.items()},
             "ratios": {"step/tofjax_sample": t["step"] / t["tofjax_sample"],
                        "step_multipath/step": t["step_multipath"] / t["step"],
                        "step_resampled/step": t["step_resampled"] / t["step"],
-                       "step_moving/step": t["step_moving"] / t["step"]},
+                       "step_moving/step": t["step_moving"] / t["step"],
+                       "step/mujoco_render": t["step"] / t["mujoco_render"],
+                       "loop/mujoco_render": t["loop"] / t["mujoco_render"]},
+            "traces_after_warm_up": traces,
             "multipath_patches": sensor.options["multipath_patches"], "pixels": rows * cols}
 
 
@@ -97,16 +157,20 @@ def table(r: dict) -> str:
     lines = [f"{'case':<32}{'steps/s':>10}{'ms':>9}  {'ratio':<34}target"]
     targets = {("224x172", "step"): ">= 100", ("224x172", "step_multipath"): ">= 30"}
     ratio_of = {"step": "step/tofjax_sample", "step_multipath": "step_multipath/step",
-                "step_resampled": "step_resampled/step", "step_moving": "step_moving/step"}
+                "step_resampled": "step_resampled/step", "step_moving": "step_moving/step",
+                "loop": "loop/mujoco_render"}
+    targets[("640x480", "step")] = "<= mujoco_render's time"
     for name in ("sensor_224x172", "sensor_640x480"):
         if name not in r:
             continue
         c, size = r[name], name[7:]
-        for kind in ("step", "step_multipath", "step_resampled", "step_moving", "tofjax_sample"):
+        for kind in ("step", "step_multipath", "step_resampled", "step_moving", "tofjax_sample", "mujoco_render",
+                     "loop", "loop_multipath"):
             key = ratio_of.get(kind)
             ratio = f"{c['ratios'][key]:.2f} ({key})" if key else ""
             lines.append(f"{size + ' ' + kind:<32}{c['steps_per_s'][kind]:>10.1f}{1e3 * c['seconds'][kind]:>9.2f}  "
                          f"{ratio:<34}{targets.get((size, kind), '')}")
+        lines.append(f"{size} traces after the warm-up (a compile): {len(c['traces_after_warm_up'])}")
     return "\n".join(lines)
 
 
@@ -115,7 +179,10 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=15)
     parser.add_argument("--quick", action="store_true", help="224 x 172 only")
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "bench_sensor.json")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     args = parser.parse_args()
+    if args.out.exists() and not args.overwrite:
+        parser.error(f"{args.out} exists: give --overwrite to replace it")
     results = {"platform": platform.platform(), "cpu_count": os.cpu_count(), "jax": jax.__version__,
                "numpy": np.__version__, "device": str(jax.devices()[0]), "repeats": args.repeats,
                "load_average": os.getloadavg()}
@@ -124,7 +191,9 @@ def main() -> None:
         results["sensor_640x480"] = case((480, 640), max(5, args.repeats // 2))
     print(table(results))
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(results, indent=2))
+    partial = args.out.with_name(f".{args.out.name}.partial-{os.getpid()}")
+    partial.write_text(json.dumps(results, indent=2))
+    os.replace(partial, args.out)  # whole or not at all
     print(f"wrote {args.out}")
 
 
