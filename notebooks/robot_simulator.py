@@ -247,7 +247,7 @@ def run(steps: int = 40, out: str | os.PathLike | None = None, *, scale: int = 1
                                 depth_type=renders[0].depth_type, segmentation=np.stack([r.segmentation for r in renders]),
                                 reflectivity_table=table, time_s=stamp, multipath=multipath)
             frames.append(frame.depth_m)
-            truths.append(frame.true_radial_m.astype(float) * ray_z)
+            truths.append(frame.true_depth_m.astype(float))
             stamps.append(frame.stamp_s)
             # each pixel's surface in the world: the camera's pose (MuJoCo's camera looks along -z)
             local = frame.true_radial_m.astype(float)[..., None] * directions * np.array([1.0, 1.0, -1.0])

@@ -77,6 +77,8 @@ def test_rep118_depth_metres_along_z_nan_where_not_delivered(wall):
     assert abs(np.median(frame.depth_m[ok]) - 1.2) < 0.02
     assert np.median(frame.radial_m[ok][z_ray[ok] < 0.99]) > 1.21
     np.testing.assert_allclose(frame.true_radial_m[ok], (1.2 / z_ray)[ok], rtol=1e-6)
+    np.testing.assert_allclose(frame.true_depth_m[ok], 1.2, rtol=1e-6)  # the truth as REP 118's depth
+    assert np.all(np.isinf(frame.true_depth_m[:4, :5]))  # no surface
     # The message's bytes: 32FC1 keeps the NaN; 16UC1 is millimetres with 0 where nothing is delivered.
     msg = frame.image("depth")
     assert (msg["encoding"], msg["is_bigendian"], msg["step"], msg["height"], msg["width"]) == ("32FC1", 0, 4 * COLS,

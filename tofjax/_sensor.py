@@ -70,7 +70,8 @@ class SensorFrame:
       right, y down, z along the axis: REP 103's ``*_optical_frame``, OpenCV's, the one
       :meth:`camera_info`'s K projects), m; NaN where not delivered.
     - ``true_radial_m`` float32: the truth, the distance along each centre ray to the surface it
-      meets (inf: none), for training and evaluation.
+      meets (inf: none), for training and evaluation; ``true_depth_m`` float32 the same as planar
+      depth (Z, REP 118's convention; inf: none).
     - ``stamp_s``: the frame's time (the buffer's time; the middle of the exposure, where tofjax's
       motion places the scene as given); ``exposure_s``: (start, end) of its exposure; ``step``: its
       number (0, 1, ...).
@@ -89,6 +90,7 @@ class SensorFrame:
     delivered: np.ndarray
     points_m: np.ndarray
     true_radial_m: np.ndarray
+    true_depth_m: np.ndarray
     stamp_s: float
     exposure_s: tuple[float, float]
     step: int
@@ -297,7 +299,8 @@ class ToFSensor:
         out = jax.tree_util.tree_map(np.asarray, out)
         half = 0.5 * float(self.timing.exposure_time_s)
         frame = SensorFrame(out["depth_m"], out["radial_m"], out["amplitude_lsb"], out["confidence"], out["flags"],
-                            out["delivered"], out["points_m"], out["true_radial_m"], stamp, (stamp - half, stamp + half),
+                            out["delivered"], out["points_m"], out["true_radial_m"], out["true_depth_m"], stamp,
+                            (stamp - half, stamp + half),
                             self.steps, self.intrinsics, self.frame_id, out.get("codes"), out.get("tap_a_e"),
                             out.get("tap_b_e"))
         self.steps += 1
@@ -645,7 +648,7 @@ def _outputs(frame: _Frame, returns, rays) -> dict:
     out = {"depth_m": (radial * d[..., 2]).astype(f32), "radial_m": radial.astype(f32),
            "amplitude_lsb": frame.amplitude_lsb.astype(f32), "confidence": confidence.astype(f32), "flags": flags,
            "delivered": delivered, "points_m": (radial[..., None] * optical).astype(f32),
-           "true_radial_m": returns.radial_m.astype(f32)}
+           "true_radial_m": returns.radial_m.astype(f32), "true_depth_m": (returns.radial_m * d[..., 2]).astype(f32)}
     if frame.codes is not None:
         out.update(codes=frame.codes, tap_a_e=frame.tap_a_e.astype(f32), tap_b_e=frame.tap_b_e.astype(f32))
     return out
