@@ -353,7 +353,9 @@ def test_multipath_from_buffers_agrees_with_tofjax_corner():
 
 
 def test_bad_inputs_are_one_line_errors(wall):
-    sensor, depth, _ = wall
+    """Each bad argument is one ValueError naming it, its value and what is allowed; a refused step
+    is no step."""
+    sensor, depth, rho = wall
     steps = sensor.steps
     with pytest.raises(ValueError, match="dtype uint16: allowed a float array in metres"):
         sensor.step(np.full((ROWS, COLS), 1200, dtype=np.uint16))
@@ -369,6 +371,19 @@ def test_bad_inputs_are_one_line_errors(wall):
         sensor.step(depth, reflectivity_table={1: 0.5})
     with pytest.raises(ValueError, match="out of range: allowed 0 to 1"):
         sensor.step(depth, reflectivity=1.5)
+    for bad, match in (({"depth": np.ones(5)}, r"depth has shape \(5,\): allowed \(rows, cols\) or \(instants, rows"),
+                       ({"normals": np.ones((ROWS, COLS))}, rf"normals has shape \({ROWS}, {COLS}\): allowed \({ROWS}, {COLS}, 3\)"),
+                       ({"normals_frame": "ros"}, "normals_frame = 'ros': allowed 'tofjax', 'optical'"),
+                       ({"segmentation": np.ones((ROWS, COLS))}, "segmentation has shape .* dtype float64: allowed integer"),
+                       ({"velocity_m_per_s": np.ones((3, 3))}, r"velocity_m_per_s has shape \(3, 3\): allowed a finite"),
+                       ({"fov_deg": 200.0}, r"fov_deg = 200.0: allowed the horizontal field of view in degrees \(0, 180\)"),
+                       ({"intrinsics": (1, 2, 3)}, r"intrinsics = \(1, 2, 3\): allowed \(fx, fy, cx, cy\)"),
+                       ({"time_s": float("nan")}, "time_s = nan: allowed a finite time")):
+        with pytest.raises(ValueError, match=match):
+            sensor.step(**{"depth": depth, **bad})
     with pytest.raises(TypeError, match="must be a tofjax.Camera"):
         ToFSensor(tj.Params())
     assert sensor.steps == steps  # a refused step is no step
+    # A buffer that sees nothing at all is no error (nor a warning): nothing delivered, no return.
+    frame = sensor.step(np.full((ROWS, COLS), np.nan), reflectivity=rho)
+    assert not frame.delivered.any() and np.all(frame.flags & 4) and np.all(np.isinf(frame.true_depth_m))

@@ -345,10 +345,10 @@ class ToFSensor:
         buffer = buffer_intrinsics(depth.shape[-2:], self.intrinsics, intrinsics, fov_deg)
         plan = self.plan(buffer)
         opts = self.options
+        if normals_frame not in NORMAL_FRAMES:
+            raise ValueError(f"normals_frame = {normals_frame!r}: allowed {', '.join(map(repr, NORMAL_FRAMES))}")
         if normals is not None:
             normals = _float_image(normals, "normals", depth.shape + (3,))
-            if normals_frame not in NORMAL_FRAMES:
-                raise ValueError(f"normals_frame = {normals_frame!r}: allowed {', '.join(map(repr, NORMAL_FRAMES))}")
             if normals_frame == "optical":
                 normals = normals * np.array([1.0, -1.0, 1.0])
         seg = None
