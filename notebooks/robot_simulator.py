@@ -1,6 +1,6 @@
 """A robot arm in a room, simulated by MuJoCo, seen by a ToF camera (issue 51; docs/simulators.md).
 
-    python notebooks/robot_simulator.py [--steps 40] [--scale 2] [--out robot_simulator] [--overwrite]
+    python notebooks/robot_simulator.py [--steps 36] [--scale 2] [--out robot_simulator] [--overwrite]
 
 A room's concave corner 5.3 m away, a table and a three-joint arm on it swinging fast, built from
 MuJoCo primitives (an MJCF string: no download). MuJoCo advances the arm (position actuators,
@@ -20,7 +20,7 @@ off (each phase image sees the arm where it stands then: with the Kinect's 4 ms 
 wide; ``--preset ti-opt8241-cdk``, one frequency over 10 ms, shows them wider), and the noise grows
 with distance. It refuses to replace an existing GIF unless ``--overwrite``. ``--scale k`` divides
 the camera's resolution by k (its field and each pixel's electrons kept: the pixel pitch times k,
-the fill factor over k^2); the GIF in docs/img is ``--scale 2``.
+the fill factor over k^2); the defaults make the GIF in docs/img.
 
 From Python: ``run(steps, out, scale=..., overwrite=...)`` returns the frames and what they show
 (:class:`Result`, ``result.summary()``); notebooks/10_robot_simulator.ipynb runs it.
@@ -197,7 +197,7 @@ def _neighbourhood(a: np.ndarray, reduce) -> np.ndarray:
     return out
 
 
-def run(steps: int = 40, out: str | os.PathLike | None = None, *, scale: int = 1, overwrite: bool = False,
+def run(steps: int = 36, out: str | os.PathLike | None = None, *, scale: int = 2, overwrite: bool = False,
         seed: int = 0, multipath: bool = True, subpixel_samples: int = 2, preset: str = PRESET,
         quiet: bool = True) -> Result:
     """Simulate ``steps`` frames (module docstring) of the ``preset``'s camera; with ``out``, write the
@@ -340,9 +340,10 @@ def _write_gif(result: Result, path: Path, overwrite: bool) -> Path:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--steps", type=int, default=40, help="frames to simulate (default 40: 1.3 s at 30 frames/s)")
+    parser.add_argument("--steps", type=int, default=36, help="frames to simulate (default 36: 1.2 s at 30 frames/s)")
     parser.add_argument("--out", default="robot_simulator", help="folder for robot_simulator.gif")
-    parser.add_argument("--scale", type=int, default=1, help="divide the camera's resolution by this (default 1)")
+    parser.add_argument("--scale", type=int, default=2, help="divide the camera's resolution by this (default 2: the "
+                        "GIF in docs/img; 1: the camera's own)")
     parser.add_argument("--seed", type=int, default=0, help="the sensor's seed (its fixed pattern and noise)")
     parser.add_argument("--preset", default=PRESET, help=f"the camera, a preset of tofjax (default {PRESET})")
     parser.add_argument("--no-multipath", action="store_true", help="without two-bounce light")
@@ -354,6 +355,9 @@ def main(argv=None) -> int:
     if gif.exists() and not args.overwrite:
         parser.error(f"{gif} exists: give --overwrite to replace it")
     import tofjax as tj
+
+    if args.preset not in tj.PRESETS:
+        parser.error(f"--preset {args.preset!r}: allowed {', '.join(tj.PRESETS)}")
 
     tj.enable_compilation_cache()
     result = run(args.steps, args.out, scale=args.scale, overwrite=args.overwrite, seed=args.seed,
