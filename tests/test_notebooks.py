@@ -12,14 +12,15 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 EXPECTED = ["01_quickstart", "02_waveforms_and_phases", "03_noise_and_sbi", "04_calibration",
-            "05_gradient_studies", "06_explorer", "07_validation", "08_full_frame", "09_camera_in_time"]
+            "05_gradient_studies", "06_explorer", "07_validation", "08_full_frame", "09_camera_in_time",
+            "10_robot_simulator"]
 
 
 def _read(path):
     return nbformat.read(path, as_version=4)
 
 
-def test_the_nine_notebooks_exist():
+def test_the_ten_notebooks_exist():
     assert [p.stem for p in NOTEBOOKS] == EXPECTED
 
 

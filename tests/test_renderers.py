@@ -278,3 +278,71 @@ def test_a_pixel_that_sees_nothing_has_no_error_and_no_warning():
         warnings.simplefilter("error")
         err = distance_error_m(arrays)
     np.testing.assert_allclose(err, [0.1, np.nan, np.nan, 1.9 - 1.8])
+
+
+def _one_plane(plan, segmentation):
+    """Camera pixels whose ray reads buffer pixels of one geometry only (the 4 x 4 buffer pixels
+    around the cell it falls in: the bilinear cell and the normals' neighbours)."""
+    rows, cols = segmentation.shape
+    corner = np.asarray(plan.corner)[..., 0]
+    r0, c0 = corner // cols, corner % cols
+    same = segmentation[r0, c0] >= 0
+    for dr in (-1, 0, 1, 2):
+        for dc in (-1, 0, 1, 2):
+            same &= segmentation[np.clip(r0 + dr, 0, rows - 1), np.clip(c0 + dc, 0, cols - 1)] == segmentation[r0, c0]
+    return same
+
+
+def test_mujoco_and_open3d_renders_through_the_sensor_give_tofjax_path_lengths():
+    """Each backend's render of the wall and box fed to ``ToFSensor`` as it is
+    (``sensor.returns(**render.step_arguments())``: MuJoCo's planar Z without normals, Open3D's radial
+    distances with normals): the sensor's path lengths are tofjax's own box_on_floor's to 1e-6 m away
+    from edges, at the camera's intrinsics (read pixel for pixel) and from a buffer of another
+    resolution, field and principal point (resampled onto the camera's rays: the intrinsics and the
+    planar / radial conversion). A step's truth is tofjax's radial distance and its delivered depth
+    is the cube's Z."""
+    from tofjax.renderers import DEPTH_TYPES as RENDER_DEPTH_TYPES
+    from tofjax.sensor import DEPTH_TYPES, ToFSensor
+
+    assert set(RENDER_DEPTH_TYPES) <= set(DEPTH_TYPES)  # a Render's depth_type is a sensor's
+    camera = _camera()
+    own = camera.returns(tj.scenes.box_on_floor(**BOX))
+    intr = tj.optics.intrinsics(camera.params, camera.settings)
+    sensor = ToFSensor(camera, fixed_pattern=False, seed=3)
+    table = {0: BOX["floor_reflectivity"]}
+    meshes = [_box_mesh(lo, hi) for lo, hi in _boxes()]
+    model, data = _mujoco_model(_boxes(), camera='fovy="60"')
+    # A buffer of another resolution, a wider field and an off-centre principal point, covering the camera's.
+    wide = {"width": 47, "height": 35, "fx": 36.0, "fy": 37.5, "cx": 22.8, "cy": 17.3}
+    renders = {"mujoco": tmj.render(model, data, "tof", tofjax_camera=camera),
+               "open3d": to3.render(meshes, camera),
+               "mujoco, resampled": tmj.render(model, data, "tof", width=47, height=35),
+               "open3d, resampled": to3.render(meshes, intrinsics=wide, depth_type="z")}
+    assert renders["mujoco, resampled"].intrinsics["fx"] != pytest.approx(intr["fx"], rel=0.05)
+    for name, render in renders.items():
+        args = render.step_arguments()
+        assert args["depth_type"] == ("z" if name.startswith("mujoco") or "resampled" in name else "radial")
+        returns = sensor.returns(**args, reflectivity_table=table)
+        plan = sensor.plan(_sensor_buffer(render, intr))
+        assert plan.identity == ("resampled" not in name), name
+        inside = _interior(render.segmentation) if plan.identity else _one_plane(plan, render.segmentation)
+        assert inside.mean() > 0.5 and set(np.unique(render.segmentation)) >= {0, 1, 2}, name
+        # The distance to the surface to 1e-6 m; the round trip (out and back, twice it) to 2e-6 m:
+        # MuJoCo's float32 depth is 2-3 float32 steps off (0.65 um at 3 m), which interpolating
+        # between its pixels keeps (at the camera's intrinsics, read pixel for pixel, it met 1e-6).
+        radial = np.abs(np.asarray(returns.radial_m) - np.asarray(own.radial_m))[inside].max()
+        path = np.abs(np.asarray(returns.path_m)[..., 0] - np.asarray(own.path_m)[..., 0])[inside].max()
+        assert radial < TOL_M and path < 2 * TOL_M, (name, radial, path)
+        print(f"{name}: largest errors through the sensor: distance {radial:.2e} m, path {path:.2e} m")
+    frame = sensor.step(**renders["mujoco"].step_arguments(), reflectivity_table=table)
+    inside = _interior(renders["mujoco"].segmentation)
+    np.testing.assert_allclose(frame.true_radial_m[inside], np.asarray(own.radial_m)[inside], rtol=1e-6)
+    cube = inside & (renders["mujoco"].segmentation == 2) & frame.delivered  # its face 1.5 m away, within range
+    assert cube.sum() > 20 and abs(np.median(frame.depth_m[cube]) - BOX["box_m"]) < 0.02
+
+
+def _sensor_buffer(render, camera_intrinsics):
+    """The buffer camera the sensor makes of a render's intrinsics."""
+    from tofjax._sensorbuffers import buffer_intrinsics
+
+    return buffer_intrinsics(render.depth_m.shape, camera_intrinsics, render.intrinsics)

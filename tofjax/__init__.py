@@ -45,7 +45,7 @@ _EXPORTS = {
 }
 #: Public submodules, loaded on first use.
 _SUBMODULES = ("chain", "cli", "frameio", "optics", "parallel", "plots", "processing", "progress", "renderers", "report",
-               "scenes", "schema", "stats", "sweepfile", "waveforms")
+               "scenes", "schema", "sensor", "stats", "sweepfile", "waveforms")
 
 
 def __getattr__(name: str):
@@ -81,8 +81,8 @@ def explorer(config=None, *, folder=None):
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from . import (  # noqa: F401
-        chain, frameio, optics, parallel, plots, processing, progress, renderers, report, scenes, schema, stats,
-        sweepfile, waveforms)
+        chain, frameio, optics, parallel, plots, processing, progress, renderers, report, scenes, schema, sensor,
+        stats, sweepfile, waveforms)
     from ._cache import enable_compilation_cache  # noqa: F401
     from ._camera import Camera, predict, simulate  # noqa: F401
     from ._config import Config, config_from_dict, load_config  # noqa: F401
