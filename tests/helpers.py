@@ -66,3 +66,19 @@ def opencv_project(points, camera_matrix, dist_coeffs):
 def to_opencv(points):
     """tofjax's camera frame (y up) to OpenCV's (y down)."""
     return points * np.array([1.0, -1.0, 1.0])
+
+
+def traces(fn):
+    """The names of the programs ``fn`` traced (none: it ran programs traced before) and its result."""
+    names = []
+
+    def listen(event, duration, **kwargs):
+        if event == "/jax/core/compile/jaxpr_trace_duration":
+            names.append(kwargs.get("fun_name"))
+
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        out = fn()
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+    return names, out

@@ -8,11 +8,12 @@ import equinox as eqx
 import jax
 import numpy as np
 import pytest
-from jax import monitoring
 
 import tofjax as tj
 from tofjax import _sweep
 from tofjax._sweep import pad_sweep, padded_samples
+
+from helpers import traces
 
 # 0.4-3.4 m: past the 1.87 m unambiguity range of 80 MHz, so the unwrapping along the sweep runs.
 DISTANCES = np.linspace(0.4, 3.4, 16)
@@ -30,26 +31,12 @@ def test_padding_bounds():
         assert n <= m <= max(16, 2 * n) and (m % 16 == 0 if n <= 4096 else m == n)
 
 
-def _traces(fn):
-    """The names of the programs ``fn`` traced (none: it ran programs traced before)."""
-    names = []
-
-    def listen(event, duration, **kwargs):
-        if event == "/jax/core/compile/jaxpr_trace_duration":
-            names.append(kwargs.get("fun_name"))
-
-    monitoring.register_event_duration_secs_listener(listen)
-    try:
-        out = fn()
-    finally:
-        monitoring.unregister_event_duration_listener(listen)
-    return names, out
 
 
 def test_predict_padding_changes_nothing_and_shares_the_program():
     params = tj.Params()
     whole = tj.predict(params, tj.Sweep("distance", DISTANCES))  # 16 points: no padding
-    traced, part = _traces(lambda: tj.predict(params, tj.Sweep("distance", DISTANCES[:13])))
+    traced, part = traces(lambda: tj.predict(params, tj.Sweep("distance", DISTANCES[:13])))
     assert traced == [], f"a 13-point sweep should run the 16-point programs, compiling nothing: {traced}"
     assert np.all(np.isfinite(np.asarray(whole.depth_unwrapped_mean_m)))
     assert float(whole.depth_unwrapped_mean_m[-1]) > float(whole.unambiguity_range_m)  # unwrapped

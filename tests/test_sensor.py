@@ -8,13 +8,12 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from jax import monitoring
 
 import tofjax as tj
 from tofjax._sensorbuffers import buffer_rays
 from tofjax.sensor import ToFSensor, camera_info
 
-from helpers import COLS, ROWS, opencv_project, small
+from helpers import COLS, ROWS, opencv_project, small, traces
 
 
 def _camera(**frame):
@@ -31,19 +30,6 @@ def _cast(scene, intrinsics):
     return np.asarray(hit.t), np.asarray(hit.normal), np.asarray(hit.reflectivity), ids, np.asarray(rays)
 
 
-def _traces(fn):
-    names = []
-
-    def listen(event, duration, **kwargs):
-        if event == "/jax/core/compile/jaxpr_trace_duration":
-            names.append(kwargs.get("fun_name"))
-
-    monitoring.register_event_duration_secs_listener(listen)
-    try:
-        out = fn()
-    finally:
-        monitoring.unregister_event_duration_listener(listen)
-    return names, out
 
 
 @pytest.fixture(scope="module")
@@ -220,9 +206,9 @@ def test_steps_of_one_shape_compile_once(wall):
     sensor.step(depth, reflectivity=rho)  # compiled (here or by an earlier test)
     rng = np.random.default_rng(0)
     scenes = [depth * (1.0 + 0.2 * rng.uniform()) for _ in range(3)]
-    traced, _ = _traces(lambda: [sensor.step(d, reflectivity=np.clip(rho * rng.uniform(), 0, 1)) for d in scenes])
+    traced, _ = traces(lambda: [sensor.step(d, reflectivity=np.clip(rho * rng.uniform(), 0, 1)) for d in scenes])
     assert traced == [], f"new scenes of the same shape should run the compiled step: traced {traced}"
-    traced, _ = _traces(lambda: sensor.step(np.full((ROWS + 2, COLS + 4), 1.2), fov_deg=(80.0, 60.0)))
+    traced, _ = traces(lambda: sensor.step(np.full((ROWS + 2, COLS + 4), 1.2), fov_deg=(80.0, 60.0)))
     assert "_step" in traced  # the counter sees a compile (another buffer shape)
 
 
