@@ -17,7 +17,7 @@ Writes ``OUT/robot_simulator.gif``: true depth | the ToF camera's depth (black: 
 its error, one frame per step. The corner and the floor's edges read long (two-bounce light), the
 pixels at the arm's and the table's edges fly between the two surfaces, the moving arm's edges read
 off (each phase image sees the arm where it stands then: with the Kinect's 4 ms window a pixel
-wide; ``--preset ti-opt8241-cdk``, one frequency over 10 ms, shows them wider), and the noise grows
+wide; ``--preset ti-opt8241-cdk``, 27 ms of exposure per frame, shows them wider), and the noise grows
 with distance. It refuses to replace an existing GIF unless ``--overwrite``. ``--scale k`` divides
 the camera's resolution by k (its field and each pixel's electrons kept: the pixel pitch times k,
 the fill factor over k^2); the defaults make the GIF in docs/img.
