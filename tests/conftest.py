@@ -12,10 +12,13 @@ os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", os.path.join(tempfile.gettemp
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.1")
 # The suite runs many small programs once: XLA's older CPU emitters compile them about twice as fast,
 # and at optimisation level 0 faster still; the suite's programs run too briefly for the slower code
-# to matter (the whole suite: 5.7 min instead of 6.9 on a 2-core machine). The same computation, up
-# to the last bit's rounding. The notebooks' kernels inherit this environment.
+# to matter (the whole suite: 5.7 min instead of 6.9 on a 2-core machine). LLVM's code generation in
+# one piece, not split across threads: the two workers already keep both cores busy, and the split's
+# threads only compete with them (test_compare, _frame, _analytic and _processing, cold, two workers:
+# 80-85 s instead of 89-91 s). The same computation, up to the last bit's rounding. The notebooks'
+# kernels inherit this environment.
 os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "") + " --xla_cpu_use_fusion_emitters=false"
-                           " --xla_backend_optimization_level=0").strip()
+                           " --xla_backend_optimization_level=0 --xla_cpu_parallel_codegen_split_count=1").strip()
 
 import tofjax  # noqa: E402, F401  (float64 on, before jax is imported)
 
