@@ -12,6 +12,7 @@ uW/cm^2/nm), fitting/validation/azure_kinect_nfov_*.csv. The derivations' number
 by docs/cameras/azure-kinect.md."""
 
 from .._presets import Preset
+from ._sources import FXTOF1, SBAA217
 
 _HWSPEC = ("Microsoft, 'Azure Kinect DK hardware specifications', learn.microsoft.com/azure/kinect-dk/hardware-"
            "specification (MicrosoftDocs/azure-docs, articles/kinect-dk/hardware-specification.md, ms.date 02/14/2020, "
@@ -42,10 +43,6 @@ _LF2 = ("OpenKinect/libfreenect2 (the Kinect v2's depth engine, 'modelled on the
 _MLX = ("Melexis, 'MLX75027 VGA Time-of-Flight Sensor', datasheet v1.0 (15/12/2020), Table 13 and Fig. 11 "
         "(10 um back-illuminated pixel; read for this project in /work/research/mlx75027.md)")
 _OPT8241 = ("Texas Instruments, 'OPT8241 3D Time-of-Flight Sensor', data sheet SBAS704B (2015), p. 1")
-_SBAA217 = ("Texas Instruments, S. C. Sadhu, 'Lenses for 3D Time-of-Flight (ToF) Image Sensors', application report "
-            "SBAA217 (2016), Table 1")
-_FXTOF1 = ("Analog Devices, 'AD-FXTOF1-EBZ' reference design, 'High level specification' "
-           "(analogdevicesinc.github.io/system-level/solutions/reference-designs/ad-fxtof1-ebz)")
 _LFW2020 = ("G. Dahlmann, V. Bhatt, S. Parthasarathi, 'VCSEL power-conversion efficiency improves to 45%', "
             "Laser Focus World, 28 January 2020")
 _TOLGYESSY = ("M. Tolgyessy, M. Dekan, L. Chovanec, P. Hubinsky, 'Evaluation of the Azure Kinect and Its Comparison "
@@ -83,7 +80,7 @@ PRESET = Preset(
         "gh1465": _gh(1465, "Question about tof type", "answer by jaygullapalli (Microsoft)"),
         "gh1807": _gh(1807, "Azure Kinect modulation frequency and range ambiguity",
                       "a community answer reading isscc (not Microsoft's)"),
-        "lf2": _LF2, "mlx75027": _MLX, "opt8241": _OPT8241, "sbaa217": _SBAA217, "fxtof1": _FXTOF1,
+        "lf2": _LF2, "mlx75027": _MLX, "opt8241": _OPT8241, "sbaa217": SBAA217, "fxtof1": FXTOF1,
         "lfw2020": _LFW2020, "tolgyessy2021": _TOLGYESSY, "docs": _DOCS,
     },
     values={

@@ -11,6 +11,7 @@ is fitted to Basler's daylight measurement. The derivations D1-D7 and every numb
 docs/cameras/basler-blaze-101.md."""
 
 from .._presets import Preset
+from ._sources import FXTOF1, SBAA217, TOFJAX_CLASS1, typical_relative_illumination
 from . import _imx556
 
 _DOCS = "docs.baslerweb.com"
@@ -49,13 +50,9 @@ REFERENCES = {
     "cdk": ("PointCloud.AI, libPointCloud, the profile of its Sony IMX556 camera kit, SonyCDKCameraNormal.conf "
             "(github.com/pointcloudAI/libPointCloud, libs/ubuntu/share/pointcloud-1.0.0/conf, commit ec2fea58), "
             "[calib] 'fx = 478', 'fy = 478', 'cx = 319', 'cy = 239', 'k1 = -0.0' ... 'p2 = 0.00'"),
-    "fxtof1": ("Analog Devices, 'AD-FXTOF1-EBZ' reference design, 'High level specification' "
-               "(analogdevicesinc.github.io/system-level/solutions/reference-designs/ad-fxtof1-ebz): a VGA 940 nm ToF "
-               "camera, here the source of typical optics only"),
-    "sbaa217": ("Texas Instruments, S. C. Sadhu, 'Lenses for 3D Time-of-Flight (ToF) Image Sensors', application "
-                "report SBAA217, July 2016, Table 1"),
-    "tofjax": ("tofjax's class 1 estimate against IEC 60825-1:2014 (docs/model.md, 'Frame timing and eye safety'; "
-               "tofjax._timing.eye_safety): small source, 7 mm aperture at 100 mm, time base 100 s"),
+    "fxtof1": FXTOF1,
+    "sbaa217": SBAA217,
+    "tofjax": TOFJAX_CLASS1,
     "docs": "this preset's page, docs/cameras/basler-blaze-101.md (its derivations D1-D7)",
     **_imx556.REFERENCES,
 }
@@ -167,9 +164,7 @@ PRESET = Preset(
                  "field), as the class 1 estimate of illumination.peak_power_w assumes"),
         "frame.baseline_m": ([0.0, 0.0], "derived: the emitters' position is not published; beside the lens their "
                                          "parallax matters only in the first tens of centimetres: coaxial"),
-        "frame.relative_illumination_exponent": (
-            1.03, "derived: not published; a typical ToF lens' relative illumination, [sbaa217] Table 1 'Relative "
-                  "Illumination (Ref.) 70%' at 'Diagonal (deg) 90°': cos^n(45°) = 0.70, n = 1.03"),
+        "frame.relative_illumination_exponent": typical_relative_illumination("not published; "),
         "frame.vignetting": (0.0, "derived: the relative illumination (frame.relative_illumination_exponent) "
                                   "includes the lens' vignetting"),
         **dict.fromkeys(

@@ -12,6 +12,7 @@ Fankhauser et al. (ICAR 2015), fixes the illumination's power and the pixel's re
 gives every derivation (D1-D9) and reproduces its numbers."""
 
 from .._presets import Preset
+from ._sources import FXTOF1, SBAA217
 
 _BAMJI = ("C. S. Bamji, P. O'Connor, T. Elkhatib, S. Mehta, B. Thompson, L. A. Prather, D. Snow, O. C. Akkaya, A. Daniel, "
           "A. D. Payne, T. Perry, M. Fenton, V.-H. Chan, 'A 0.13 um CMOS System-on-Chip for a 512 x 424 Time-of-Flight "
@@ -54,10 +55,6 @@ _MSDOC = ("Microsoft, Kinect for Windows SDK 2.0 reference, 'DepthFrame Class' (
 _TWEAKTOWN = "TweakTown, 'iFixit opens up the new Xbox One Kinect sensor to see whats inside' (2013), news/34077"
 _MLX = ("Melexis, 'MLX75027 VGA Time-of-Flight Sensor', datasheet v1.0, 15 December 2020, Table 13 (p.17): the one "
         "10 um ToF pixel with a full datasheet in the project's sources")
-_FXTOF1 = ("Analog Devices, 'AD-FXTOF1-EBZ' reference design, 'High level specification' "
-           "(analogdevicesinc.github.io/system-level/solutions/reference-designs/ad-fxtof1-ebz)")
-_SBAA217 = ("Texas Instruments, S. C. Sadhu, 'Lenses for 3D Time-of-Flight (ToF) Image Sensors', application report "
-            "SBAA217 (2016), Table 1")
 _CMR = ("C. Bamji, K. Salama (Canesta, now Microsoft), 'Method and system to differentially enhance sensor dynamic "
         "range using enhanced common mode reset', US 7,176,438 (the pixel family's background suppression)")
 _CORTI = ("A. Corti, S. Giancola, G. Mainetti, R. Sala, 'A metrological characterization of the Kinect V2 time-of-flight "
@@ -95,8 +92,8 @@ PRESET = Preset(
         "lf2-747": _gh(747, "Getting Raw data", "comment by xlz"),
         "mathworks": _MATHWORKS, "smeenk": _SMEENK, "vgleaks": _VGLEAKS, "semiacc": _SEMIACC, "hothw": _HOTHW,
         "toms": _TOMS, "stuehmer2015": _STUEHMER, "chipworks": _CHIPWORKS, "codingtrain": _CODINGTRAIN, "flat": _FLAT,
-        "fankhauser2015": _FANKHAUSER, "msdoc": _MSDOC, "tweaktown": _TWEAKTOWN, "mlx75027": _MLX, "fxtof1": _FXTOF1,
-        "sbaa217": _SBAA217, "cmr": _CMR, "corti2016": _CORTI, "wasenmuller2016": _WASEN, "docs": _DOCS,
+        "fankhauser2015": _FANKHAUSER, "msdoc": _MSDOC, "tweaktown": _TWEAKTOWN, "mlx75027": _MLX, "fxtof1": FXTOF1,
+        "sbaa217": SBAA217, "cmr": _CMR, "corti2016": _CORTI, "wasenmuller2016": _WASEN, "docs": _DOCS,
     },
     values={
         # --- illumination -------------------------------------------------------------------------

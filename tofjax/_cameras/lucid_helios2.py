@@ -12,6 +12,7 @@ is the most a class 1 illumination emits in tofjax's (small-source) estimate at 
 docs/cameras/lucid-helios2.md gives every derivation and what stays open."""
 
 from .._presets import Preset
+from ._sources import FXTOF1, SBAA217, TOFJAX_CLASS1, typical_relative_illumination
 from . import _imx556
 
 _MIRROR = "1stvision.com/cameras/Lucid-Vision-Labs"
@@ -36,13 +37,9 @@ REFERENCES = {
             "(github.com/pointcloudAI/libPointCloud, libs/ubuntu/share/pointcloud-1.0.0/conf, commit ec2fea58), "
             "[calib] 'fx = 478', 'fy = 478', 'cx = 319', 'cy = 239', 'k1 = -0.0' ... 'p2 = 0.00'"),
     "opt8241": "Texas Instruments, 'OPT8241 3D Time-of-Flight Sensor', data sheet SBAS704B (2015), p. 1",
-    "fxtof1": ("Analog Devices, 'AD-FXTOF1-EBZ' reference design, 'High level specification' "
-               "(analogdevicesinc.github.io/system-level/solutions/reference-designs/ad-fxtof1-ebz): typical optics "
-               "only"),
-    "sbaa217": ("Texas Instruments, S. C. Sadhu, 'Lenses for 3D Time-of-Flight (ToF) Image Sensors', application "
-                "report SBAA217, July 2016, Table 1"),
-    "tofjax": ("tofjax's class 1 estimate against IEC 60825-1:2014 (docs/model.md, 'Frame timing and eye safety'; "
-               "tofjax._timing.eye_safety): small source, 7 mm aperture at 100 mm, time base 100 s"),
+    "fxtof1": FXTOF1,
+    "sbaa217": SBAA217,
+    "tofjax": TOFJAX_CLASS1,
     "blaze": ("tofjax's basler-blaze-101 preset and docs/cameras/basler-blaze-101.md: the other camera on this sensor, "
               "whose maker documents what LUCID does not"),
     "docs": "this preset's page, docs/cameras/lucid-helios2.md (its derivations H1-H6)",
@@ -142,9 +139,7 @@ PRESET = Preset(
                  "illumination.peak_power_w assumes"),
         "frame.baseline_m": ([0.0, 0.0], "derived: the emitters' position is not published; beside the lens their "
                                          "parallax matters only in the first tens of centimetres: coaxial"),
-        "frame.relative_illumination_exponent": (
-            1.03, "derived: not published; a typical ToF lens' relative illumination, [sbaa217] Table 1 'Relative "
-                  "Illumination (Ref.) 70%' at 'Diagonal (deg) 90°': cos^n(45°) = 0.70, n = 1.03"),
+        "frame.relative_illumination_exponent": typical_relative_illumination("not published; "),
         "frame.vignetting": (0.0, "derived: the relative illumination (frame.relative_illumination_exponent) "
                                   "includes the lens' vignetting"),
         **dict.fromkeys(

@@ -9,18 +9,11 @@ widest band-pass filter that the datasheet's "120KLUX robust" statement allows. 
 gives every argument and what stays open."""
 
 from .._presets import Preset
+from ._sources import FXTOF1, SBAA217, TOFJAX_CLASS1, typical_relative_illumination
 
 _MLX = ("Melexis, 'MLX75027 VGA Time-of-Flight Sensor', datasheet v1.0, document 3901075027, 15 December 2020 "
         "(page numbers 'Page N of 67'; copy in github.com/rzw2/mlx75027_config, "
         "doc/MLX75027-Datasheet-Melexis_v1.0.pdf, commit 0501f11)")
-_FXTOF1 = ("Analog Devices, 'AD-FXTOF1-EBZ' reference design, 'High level specification' "
-           "(analogdevicesinc.github.io/system-level/solutions/reference-designs/ad-fxtof1-ebz): a VGA 940 nm "
-           "time-of-flight camera, here the source of typical optics only")
-_SBAA217 = ("Texas Instruments, S. C. Sadhu, 'Lenses for 3D Time-of-Flight (ToF) Image Sensors', application report "
-            "SBAA217, July 2016, Table 1 'an example lens specification which works well for a 3D ToF system' "
-            "(TI document viewer, lit/html/SBAA217)")
-_TOFJAX = ("tofjax's class 1 estimate against IEC 60825-1:2014 (docs/model.md, 'Frame timing and eye safety'; "
-           "tofjax._timing.eye_safety): small source, 7 mm aperture at 100 mm, time base 100 s")
 
 #: Derived circuit numbers (docs/cameras/melexis-mlx75027.md, "The pixel's circuit keys"). The 83 e- "Pixel dark
 #: noise" is the A-B output's, quantisation (94.34 e- per DN / sqrt 12 = 27.2 e-) included; its analog part
@@ -47,7 +40,7 @@ PRESET = Preset(
     name="melexis-mlx75027",
     title="Melexis MLX75027 reference camera, NOT a product: the sensor's datasheet v1.0 with its use case B "
           "(100 MHz, 600 us, 60 fps) and a derived 940 nm class 1 illumination, lens and band-pass filter",
-    references={"mlx75027": _MLX, "fxtof1": _FXTOF1, "sbaa217": _SBAA217, "tofjax": _TOFJAX},
+    references={"mlx75027": _MLX, "fxtof1": FXTOF1, "sbaa217": SBAA217, "tofjax": TOFJAX_CLASS1},
     values={
         # --- the illumination: derived (no MLX75027 camera documents its own)
         "illumination.peak_power_w": (
@@ -197,9 +190,7 @@ PRESET = Preset(
         "frame.baseline_m": (
             [0.0, 0.0], "derived: no MLX75027 camera states its emitter's place; beside the lens its parallax "
                         "matters only in the first tens of centimetres: the reference camera's is coaxial"),
-        "frame.relative_illumination_exponent": (
-            1.03, "derived: a typical ToF lens' relative illumination, [sbaa217] Table 1 'Relative Illumination "
-                  "(Ref.) 70%' at its 'Diagonal (deg) 90°' field: cos^n(45 deg) = 0.70, n = 1.03"),
+        "frame.relative_illumination_exponent": typical_relative_illumination(),
         "frame.vignetting": (0.0, "derived: a lens' relative illumination (frame.relative_illumination_exponent, "
                                   "[sbaa217]) includes its vignetting; nothing further"),
         **dict.fromkeys(

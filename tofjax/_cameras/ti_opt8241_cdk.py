@@ -19,6 +19,7 @@ derivation (T1-T7) and what stays open."""
 import math
 
 from .._presets import Preset
+from ._sources import SBAA217, TOFJAX_CLASS1, typical_relative_illumination
 
 _VX = "github.com/3dtof/voxelsdk"
 _VX_HEAD = "db85629019111fbc95f0ecb45f1a87f6af94a40b"
@@ -47,15 +48,12 @@ REFERENCES = {
                       "parameters to no distortion' set fx = fy = 230, k1..p2 = 0"),
     "calwiz": ("Texas Instruments, Voxel calibration wizard, github.com/3dtof/calibwizard, doc/Calibrations.rst "
                "(commit 81942c0c)"),
-    "sbaa217": ("Texas Instruments, S. C. Sadhu, 'Lenses for 3D Time-of-Flight (ToF) Image Sensors', application report "
-                "SBAA217, July 2016 (for OPT8241, OPT8320, OPT9221), Table 1 'an example lens specification which works "
-                "well for a 3D ToF system'"),
+    "sbaa217": SBAA217,
     "mlx75027": ("Melexis, 'MLX75027 VGA Time-of-Flight Sensor', datasheet v1.0, 15 December 2020, Table 13 (p. 17) "
                  "(read for this project in /work/research/mlx75027.md; the melexis-mlx75027 preset): a 10 um "
                  "back-illuminated ToF pixel of the same 51 % external quantum efficiency at 850 nm as the OPT8241's "
                  "0.35 A/W, the analogy the pixel's electrical keys rest on"),
-    "tofjax": ("tofjax's class 1 estimate against IEC 60825-1:2014 (docs/model.md, 'Frame timing and eye safety'; "
-               "tofjax._timing.eye_safety): small source, 7 mm aperture at 100 mm, time base 100 s"),
+    "tofjax": TOFJAX_CLASS1,
     "docs": "this preset's page, docs/cameras/ti-opt8241-cdk.md (its derivations T1-T7)",
 }
 
@@ -281,9 +279,8 @@ PRESET = Preset(
         "frame.distortion_k3": (-0.0838070075746, "quoted: [voxelsdk-2015] l. 17 'k3 = -0.0838070075746'"),
         "frame.distortion_p1": (0.00128792508541, "quoted: [voxelsdk-2015] l. 24 'p1 = 0.00128792508541'"),
         "frame.distortion_p2": (0.00177329655628, "quoted: [voxelsdk-2015] l. 21 'p2 = 0.00177329655628'"),
-        "frame.relative_illumination_exponent": (
-            1.03, "derived: not published for the CDK's lens; TI's example ToF lens, [sbaa217] Table 1 'Relative "
-                  "Illumination (Ref.) 70%' at 'Diagonal (deg) 90°': cos^n(45°) = 0.70, n = 1.03"),
+        "frame.relative_illumination_exponent": typical_relative_illumination(
+            "not published for the CDK's lens; TI's example ToF lens: "),
         "frame.vignetting": (0.0, "derived: the relative illumination (frame.relative_illumination_exponent) includes "
                                   "the lens' vignetting"),
         "frame.illumination_falloff_exponent": (
