@@ -1,5 +1,7 @@
 """Helpers shared by the test modules (``from helpers import ...``; tests/ is on sys.path)."""
 
+import contextlib
+
 import jax
 import numpy as np
 
@@ -82,3 +84,20 @@ def traces(fn):
     finally:
         jax.monitoring.unregister_event_duration_listener(listen)
     return names, out
+
+
+@contextlib.contextmanager
+def examples_as_scripts():
+    """Run documented examples that turn the compilation cache (and its notice) on as a script does,
+    ``tj.enable_compilation_cache()``; afterwards this worker's tests compile as before: the cache's
+    directory and threshold restored (the examples keep every program, the suite only those above
+    its threshold), no notice."""
+    from tofjax import progress
+
+    before = (jax.config.jax_compilation_cache_dir, jax.config.jax_persistent_cache_min_compile_time_secs)
+    try:
+        yield
+    finally:
+        progress.compile_notice(False)
+        jax.config.update("jax_compilation_cache_dir", before[0])
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", before[1])

@@ -17,25 +17,18 @@ def _python_blocks() -> list[str]:
 
 
 def test_every_api_doc_block_runs_and_shows_what_it_says():
-    import jax
-
-    from tofjax import progress
+    from helpers import examples_as_scripts
 
     blocks = _python_blocks()
     assert blocks
-    before = (jax.config.jax_compilation_cache_dir, jax.config.jax_persistent_cache_min_compile_time_secs)
     namespaces, out = [], io.StringIO()
-    try:
+    with examples_as_scripts():  # the rest of this worker's tests compile as before, without the notice
         for i, text in enumerate(blocks):
             assert "tj.enable_compilation_cache()" in text, f"docs/api.md block {i + 1}: a cold start is silent"
             namespace = {"__name__": "__api_doc__"}
             with contextlib.redirect_stdout(out):  # warnings are errors here: an all-flagged frame fails
                 exec(compile(text, f"docs/api.md block {i + 1}", "exec"), namespace)
             namespaces.append(namespace)
-    finally:  # the rest of this worker's tests compile as before, without the notice
-        progress.compile_notice(False)
-        jax.config.update("jax_compilation_cache_dir", before[0])
-        jax.config.update("jax_persistent_cache_min_compile_time_secs", before[1])
     first = namespaces[0]
     image, expected, frames = first["image"], first["expected"], first["frames"]
     flags = np.asarray(image.flags)

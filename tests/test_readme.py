@@ -18,6 +18,8 @@ import pytest
 from tofjax import sweepfile as sf
 from tofjax.cli import main
 
+from helpers import examples_as_scripts
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -114,7 +116,7 @@ def test_every_readme_block_runs_as_written(tmp_path, monkeypatch, capsys):
     blocks = _blocks()
     first_two = [i for i, (lang, _) in enumerate(blocks) if lang == "bash"][:2]
     ran = 0
-    try:
+    with examples_as_scripts():  # the rest of this worker's tests as before: no notice, the suite's cache threshold
         for i, (lang, text) in enumerate(blocks):
             if i in first_two:
                 continue  # the tests above
@@ -128,8 +130,6 @@ def test_every_readme_block_runs_as_written(tmp_path, monkeypatch, capsys):
             else:
                 pytest.fail(f"README.md block {i + 1} is {lang!r}: add how to run it here")
             ran += 1
-    finally:  # the rest of this worker's tests without the notice the blocks turned on
-        progress.compile_notice(False)
     captured = capsys.readouterr()
     assert "Traceback" not in captured.err
     assert ran >= 7
@@ -203,20 +203,16 @@ def test_every_fitting_doc_python_block_runs_and_shows_what_it_says(tmp_path, mo
     converges to the example's truth and writes what the command writes; the comparison has one entry
     per file with finite ratios. In this file, after the README's calibration, so its programs are
     compiled once."""
-    from tofjax import progress
-
     (tmp_path / "fitting").symlink_to(ROOT / "fitting", target_is_directory=True)
     monkeypatch.chdir(tmp_path)
     blocks = re.findall(r"```python\n(.+?)\n```", (ROOT / "docs" / "fitting.md").read_text(), re.S)
     assert len(blocks) == 2
     namespaces = []
-    try:
+    with examples_as_scripts():
         for i, text in enumerate(blocks):
             assert "tj.enable_compilation_cache()" in text, f"docs/fitting.md block {i + 1}: a cold start is silent"
             namespaces.append({"__name__": "__fitting_doc__"})
             exec(compile(text, f"docs/fitting.md block {i + 1}", "exec"), namespaces[-1])
-    finally:
-        progress.compile_notice(False)
     ls = namespaces[0]["ls"]
     assert ls.converged and ls.estimate[0] == pytest.approx(0.38, abs=3e-3)
     assert {"calibrated.toml", "calibration.json", "report.md"} <= {p.name for p in (tmp_path / "calibration-api").iterdir()}

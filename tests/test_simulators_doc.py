@@ -34,14 +34,13 @@ def _same_text(printed: str, stated: str) -> bool:
 
 
 def test_every_simulators_block_runs_and_shows_what_it_says():
-    import jax
+    from helpers import examples_as_scripts
 
     os.environ.setdefault("MUJOCO_GL", "egl")
     blocks = _blocks()
     assert len(blocks) == 2
-    before = (jax.config.jax_compilation_cache_dir, jax.config.jax_persistent_cache_min_compile_time_secs)
     spaces = []
-    try:
+    with examples_as_scripts():  # the rest of this worker's tests compile as before, without the notice
         for i, (code, stated) in enumerate(blocks):
             assert "tj.enable_compilation_cache()" in code, f"docs/simulators.md block {i + 1}: a cold start is silent"
             out, space = io.StringIO(), {"__name__": "__simulators_doc__"}
@@ -50,9 +49,6 @@ def test_every_simulators_block_runs_and_shows_what_it_says():
             printed = " ".join(out.getvalue().split())
             assert _same_text(printed, stated), (i + 1, printed, stated)
             spaces.append(space)
-    finally:  # the rest of this worker's tests compile as before
-        jax.config.update("jax_compilation_cache_dir", before[0])
-        jax.config.update("jax_persistent_cache_min_compile_time_secs", before[1])
     # The MuJoCo loop: three steps of MuJoCo's planar depth, resampled from its wider field.
     mj = spaces[0]
     frame, render, sensor = mj["frame"], mj["render"], mj["sensor"]
