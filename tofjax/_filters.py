@@ -60,8 +60,6 @@ def _median_variances(n_max: int = MAX_SIZE * MAX_SIZE) -> tuple[np.ndarray, np.
 
     out, rho = np.zeros(n_max + 1), np.zeros(n_max + 1)
     out[1] = 1.0
-    xs, ys = x[:, None], x[None, :]
-    upper = ys > xs
     for n in range(2, n_max + 1):
         if n % 2:
             out[n] = np.sum(x * x * order_density(n, (n + 1) // 2)) * h
@@ -69,9 +67,13 @@ def _median_variances(n_max: int = MAX_SIZE * MAX_SIZE) -> tuple[np.ndarray, np.
         k = n // 2
         second = np.sum(x * x * (order_density(n, k) + order_density(n, k + 1))) * h
         log_k = math.lgamma(n + 1) - math.lgamma(k) - math.lgamma(n - k)
-        joint = np.exp(log_k + (k - 1) * logc[:, None] + (n - k - 1) * logs[None, :]) * pdf[:, None] * pdf[None, :]
-        # x < y, the diagonal's cells half inside (the trapezoid rule across the density's edge).
-        cross = (np.sum(np.where(upper, xs * ys * joint, 0.0)) + 0.5 * np.sum(x * x * np.diag(joint))) * h * h
+        # The joint density of the two middle values, x < y, is separable: exp(log_k) f(x) g(y), so the
+        # sum over x < y is a cumulative sum, the diagonal's cells half inside (the trapezoid rule
+        # across the density's edge).
+        f = x * np.exp((k - 1) * logc) * pdf
+        g = x * np.exp((n - k - 1) * logs) * pdf
+        below = np.cumsum(f) - f  # sum of f over the grid points left of each
+        cross = math.exp(log_k) * (np.sum(g * below) + 0.5 * np.sum(f * g)) * h * h
         out[n] = 0.25 * (second + 2.0 * cross)
         mean_k = np.sum(x * order_density(n, k)) * h  # the upper middle value's mean is -mean_k
         var_k = 0.5 * second - mean_k**2
