@@ -14,6 +14,7 @@ import pytest
 import tofjax as tj
 from tofjax import scenes
 from tofjax._motion import instants_s
+from tofjax._multiframe import _at
 
 from helpers import COLS, ROWS, small
 
@@ -71,6 +72,35 @@ def test_an_axially_moving_wall_is_each_phase_image_at_its_own_distance():
     np.testing.assert_allclose(moving.amplitude_lsb / centre.amplitude_lsb, np.abs(z) / np.abs(z0), rtol=1e-9)
     bias = float(moving.radial_m[CENTRE] - centre.radial_m[CENTRE])
     assert 1e-4 < abs(bias) < v * 11e-3  # a bias, less than the 33 mm the wall travels in the frame
+
+
+def test_two_frequencies_see_the_scene_during_their_own_phase_images():
+    """Two frequencies of 4 phases: the frame's 8 phase images in turn, frequency i's phase image j
+    the frame's 4 i + j. A wall receding at 3 m/s, one instant per phase image: frequency i's phase
+    image j has the tap charges of a one-frequency camera at f_i looking at the static wall at
+    1.3 m + v t_(4i+j), the instants of the frame's 8 phase images around its centre (the second
+    frequency saw the first's four instants before). One Returns per phase image is 8 for this
+    camera, the frame's; 4 are refused."""
+    config = tj.Config().replace("pixel.noise", False).replace("adc.enabled", False)
+    params = small(config.params)
+    freqs = (float(params.illumination_waveform.modulation_frequency_hz), 60.24e6)
+    camera = tj.Camera(params, ONE_RAY, freqs)
+    v, d0 = 3.0, 1.3
+    t = np.asarray(instants_s(8, 2e-3, 1e-3, 1))[:, 0]
+    assert camera.timing.phase_images == 8
+    moving = camera.expose(scenes.moving(scenes.wall(d0), [0.0, 0.0, v], substeps=1))
+    for i, f in enumerate(freqs):
+        one = tj.Camera(eqx.tree_at(lambda q: q.illumination_waveform.modulation_frequency_hz, params, f), ONE_RAY)
+        mine = _at(moving.frames, i).predict().result
+        for j in range(4):
+            static = tj.predict(one, scenes.wall(d0 + v * t[4 * i + j])).result
+            np.testing.assert_allclose(mine.tap_a_e[..., j], static.tap_a_e[..., j], rtol=1e-12, err_msg=(i, j))
+            np.testing.assert_allclose(mine.tap_b_e[..., j], static.tap_b_e[..., j], rtol=1e-12, err_msg=(i, j))
+    walls = [camera.returns(scenes.wall(d0 + v * tj_)) for tj_ in t]
+    given = tj.predict(camera, walls)  # the same frame from one Returns per phase image
+    np.testing.assert_allclose(given.radial_m, moving.predict().radial_m, atol=1e-12)
+    with pytest.raises(ValueError, match=r"has 4 tofjax.Returns: the camera's frame has 8 phase images"):
+        camera.returns(walls[:4])
 
 
 def test_a_turning_wall_is_each_phase_image_at_its_own_tilt():
@@ -148,7 +178,7 @@ def test_monte_carlo_frames_of_a_moving_scene_match_its_analytic_frame():
 def test_what_cannot_move_is_refused_in_one_line():
     camera = tj.Camera(small(), ONE_RAY)
     wall = scenes.wall(1.3)
-    with pytest.raises(ValueError, match="a scene given per phase image has 3 tofjax.Returns: the camera has 4"):
+    with pytest.raises(ValueError, match="a scene given per phase image has 3 tofjax.Returns: the camera's frame has 4"):
         camera.returns([camera.returns(wall)] * 3)
     with pytest.raises(ValueError, match=r"substeps = 0 is out of range: allowed integer 1 <= value <= 64"):
         scenes.moving(wall, [0.0, 0.0, 1.0], substeps=0)
@@ -168,6 +198,15 @@ def test_what_cannot_move_is_refused_in_one_line():
     three = tj.Camera(small(dataclasses.replace(tj.Params(), pixel=tj.Pixel(n_phases=3))), ONE_RAY)
     with pytest.raises(ValueError, match="phase_image names phase image 3: the camera has 3"):
         tj.predict(three, moving)
+    two = tj.Camera(small(), ONE_RAY, (80.32e6, 60.24e6))  # 8 phase images, each frequency's 4 in turn
+    with pytest.raises(ValueError, match=r"phase_image names phase image 11: the camera's frame has 8 \(4 phases x 2 "
+                                         r"frequencies"):
+        tj.predict(two, tj.Camera(small(), ONE_RAY, (80.32e6, 60.24e6, 40e6)).returns(scenes.moving(wall, [0, 0, 1.0],
+                                                                                                     substeps=1)))
+    static = camera.returns(wall)
+    uneven = two.returns([static] * 8) + dataclasses.replace(static, phase_image=(0,) * static.path_m.shape[-1])
+    with pytest.raises(ValueError, match="every frequency's phase images need the same returns"):
+        tj.predict(two, uneven)
 
 
 def test_the_phase_drifts_with_temperature_as_a_longer_path():

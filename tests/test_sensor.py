@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import tofjax as tj
+from tofjax._motion import instants_s
 from tofjax._sensorbuffers import buffer_rays
 from tofjax.sensor import ToFSensor, camera_info
 
@@ -265,7 +266,8 @@ def test_a_stack_of_buffers_is_tofjax_moving_scene():
 
 def test_a_preset_of_several_frequencies_and_processing():
     """kinect-v2 (three frequencies, calibration and a spatial filter) on the small array: the fused
-    frame is tofjax's own noisy frame of the step's key, the raw phase images come per frequency."""
+    frame is tofjax's own noisy frame of the step's key, the raw phase images come per frequency; a
+    stack of buffers is one per phase image of the frame, every frequency's."""
     config = tj.preset_config("kinect-v2")
     pitch = config.params.camera.pixel_pitch_m
     params = eqx.tree_at(lambda q: q.camera.optical_area_m, config.params, jnp.array([COLS, ROWS], dtype=float) * pitch)
@@ -280,6 +282,15 @@ def test_a_preset_of_several_frequencies_and_processing():
     assert ok.mean() > 0.75  # the array's corners: low signal
     np.testing.assert_allclose(frame.radial_m[ok], np.asarray(own.radial_m[0])[ok], rtol=1e-6)
     assert abs(np.median(frame.depth_m[ok]) - 2.5) < 0.05  # beyond the 80 MHz range (1.87 m): unwrapped
+    # Its motion: the frame's 9 phase images (3 frequencies of 3 phases, in turn), each at its own instant;
+    # a stack of buffers receding at 0.4 m/s is the camera's depth map with that velocity.
+    timing = cam.timing
+    times = sensor.instants_s(1)
+    np.testing.assert_allclose(times, np.ravel(instants_s(9, timing.phase_image_time_s, timing.readout_time_s, 1)))
+    mine = sensor.returns(depth + 0.4 * times[:, None, None])
+    own = cam.returns(depth, velocity_m_per_s=0.4, substeps=1)
+    assert mine.phase_image == own.phase_image and max(own.phase_image) == 8
+    np.testing.assert_allclose(np.asarray(mine.path_m), np.asarray(own.path_m), rtol=0, atol=1e-9)
 
 
 def _corner_bias(cam, returns, truth):

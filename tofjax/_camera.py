@@ -131,7 +131,8 @@ class Camera(eqx.Module):
         background light's direction); or a depth map's, ``(rows, cols)`` Z depth in metres (the
         radial distance with ``radial=True``) with a ``reflectivity`` map or number, one ray per
         pixel. A scene moving during the frame (:func:`tofjax.scenes.moving`), or a list of one
-        :class:`Returns` per phase image (a renderer's), gives every phase image's own returns
+        :class:`Returns` per phase image of the frame (a renderer's; several frequencies: each
+        frequency's phase images in turn), gives every phase image's own returns
         (:mod:`tofjax._motion`); so does a depth map with ``velocity_m_per_s`` (a number or a map: how
         fast each pixel's depth grows, in the map's own convention, Z or radial) over ``substeps``
         instants per phase image. Once per scene: the verbs call it for a scene that is not yet
@@ -141,10 +142,12 @@ class Camera(eqx.Module):
         if isinstance(scene, MovingScene):
             return moving_returns(self, scene, sun_direction=sun_direction, bins=bins)
         if isinstance(scene, list | tuple):
-            n = self.params.pixel.n_phases
+            n = self.params.pixel.n_phases * max(len(self.frequencies_hz), 1)  # every frequency's, in turn
             if len(scene) != n:
-                raise ValueError(f"a scene given per phase image has {len(scene)} tofjax.Returns: the camera has {n} "
-                                 "phase images (pixel.n_phases), one Returns each")
+                what = ("pixel.n_phases" if not self.multifrequency else
+                        f"pixel.n_phases x {len(self.frequencies_hz)} frequencies, each frequency's in turn")
+                raise ValueError(f"a scene given per phase image has {len(scene)} tofjax.Returns: the camera's frame has "
+                                 f"{n} phase images ({what}), one Returns each")
             return per_phase_returns(scene)
         if isinstance(scene, SceneGeometry):
             return scene_returns(self.params, self.settings, scene, sun_direction=sun_direction, bins=bins)

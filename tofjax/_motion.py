@@ -2,14 +2,18 @@
 time: motion").
 
 A frame's phase images integrate one after the other (:attr:`tofjax.Camera.timing`): phase image j
-from t_j = j (t + t_ro) to t_j + t, t the phase image time and t_ro the readout time. A scene that
+from t_j = j (t + t_ro) to t_j + t, t the phase image time and t_ro the readout time; a camera of
+several frequencies takes each frequency's phase images in turn, so the frame's phase image j is
+phase j mod n of frequency j // n (n phases per frequency), and every frequency sees the scene where
+it stands during its own phase images. A scene that
 moves is exposed at the instants it occupies: each phase image sees the scene at ``substeps``
 instants spread evenly over its integration (the centre of each of ``substeps`` equal slices), each
 carrying 1/``substeps`` of its light, so the exposure integrates the motion within a phase image
 and the scene has moved between phase images. Its returns are the returns of every instant, each
 tagged with its phase image (:attr:`tofjax.Returns.phase_image`); the mixer sorts each into its own
 phase image only. The truth (``radial_m``) and the background light are the scene's at the frame's
-centre time, (N t + (N - 1) t_ro) / 2, where the scene stands as given.
+centre time, (N t + (N - 1) t_ro) / 2 (N the frame's phase images, every frequency's), where the scene
+stands as given.
 
 What moves: a :class:`MovingScene` (:func:`moving`: a scene's primitives and patches in rigid
 motion, a constant velocity and a constant angular velocity about a pivot), or a user's renderer's
@@ -136,9 +140,9 @@ def instants_s(n_phases: int, phase_image_time_s, readout_time_s, substeps: int)
 
 
 def _stacked(parts: Returns, n_phases: int, substeps: int, static: Returns) -> Returns:
-    """Returns of ``n_phases x substeps`` instants (a leading axis) as one pixel's returns, each
-    instant's radiance 1/``substeps`` of its phase image's, tagged with its phase image; the truth
-    and the background ``static``'s."""
+    """Returns of ``n_phases x substeps`` instants (a leading axis; ``n_phases`` the frame's phase
+    images, every frequency's) as one pixel's returns, each instant's radiance 1/``substeps`` of its
+    phase image's, tagged with its phase image; the truth and the background ``static``'s."""
     rows, cols, k = parts.path_m.shape[1:]
     n = n_phases * substeps
 
@@ -158,15 +162,23 @@ def moving_returns(camera, scene: MovingScene, **kwargs) -> Returns:
     static = camera.returns(scene.geometry, **kwargs)
     if scene.still:
         return static
-    return _over_instants(camera, scene.substeps, static, lambda t: camera.returns(scene.at(t), **kwargs))
+    return _over_instants(_timing(camera), scene.substeps, static, lambda t: camera.returns(scene.at(t), **kwargs))
 
 
-def _over_instants(camera, substeps: int, static: Returns, returns_at) -> Returns:
-    """The returns ``returns_at(t)`` of every instant the camera's phase images expose (``t`` from the
-    frame's centre, s; one ``vmap``ed program), stacked and tagged (:func:`_stacked`)."""
-    params = camera.params
-    n = params.pixel.n_phases
-    times = instants_s(n, params.scene.integration_time_s, params.timing.readout_time_s, substeps).reshape(-1)
+def _timing(camera):
+    """A :class:`tofjax.Camera`'s frame timing (its frequencies' phase images in turn), unchecked: the
+    instants are where the scene is seen, whatever the frame rate."""
+    from ._timing import frame_timing
+
+    return frame_timing(camera.params, max(len(camera.frequencies_hz), 1))
+
+
+def _over_instants(timing, substeps: int, static: Returns, returns_at) -> Returns:
+    """The returns ``returns_at(t)`` of every instant the frame's phase images expose (``timing``, a
+    :class:`tofjax._timing.FrameTiming`: all of them, every frequency's; ``t`` from the frame's centre,
+    s; one ``vmap``ed program), stacked and tagged (:func:`_stacked`)."""
+    n = timing.phase_images
+    times = instants_s(n, timing.phase_image_time_s, timing.readout_time_s, substeps).reshape(-1)
     return _stacked(jax.vmap(returns_at)(times), n, substeps, static)
 
 
@@ -186,8 +198,8 @@ def moving_depth_returns(camera, depth_m, reflectivity, radial: bool, velocity_m
     if _still(v):
         return static
     depth = jnp.asarray(depth_m, dtype=float)
-    return _over_instants(camera, substeps, static, lambda t: depth_returns(camera.params, camera.settings,
-                                                                            depth + v * t, reflectivity, radial=radial))
+    return _over_instants(_timing(camera), substeps, static, lambda t: depth_returns(
+        camera.params, camera.settings, depth + v * t, reflectivity, radial=radial))
 
 
 def per_phase_returns(returns) -> Returns:

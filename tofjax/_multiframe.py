@@ -254,13 +254,46 @@ def multi_prepare_camera(params, settings, pattern, *, smooth, processing, frequ
     return MultiPreparedCamera(cameras, freq)
 
 
+def over_frequencies(fn, cameras, returns: Returns, n_frequencies: int):
+    """``jax.vmap`` of ``fn(camera, returns)`` over the frequencies' prepared ``cameras`` (a leading
+    axis), each frequency with the returns of its own phase images: a static scene's returns are
+    every frequency's; returns tagged with the frame's phase images (:attr:`tofjax.Returns.phase_image`,
+    a moving scene's) give frequency i those tagged i n .. i n + n - 1, as its phase images 0 .. n - 1
+    (n phases per frequency, each frequency's phase images in turn: docs/model.md, "A camera in time:
+    motion"), and those tagged -1 (every phase image). Every frequency must then have the same
+    tags; ``ValueError`` otherwise."""
+    if returns.phase_image is None:
+        return jax.vmap(lambda c: fn(c, returns))(cameras)
+    n = int(cameras.chain.n_phases)
+    tags = np.asarray(returns.phase_image)
+    total = n * n_frequencies
+    if tags.max(initial=-1) >= total:
+        raise ValueError(f"tofjax.Returns: phase_image names phase image {int(tags.max())}: the camera's frame has "
+                         f"{total} ({n} phases x {n_frequencies} frequencies, each frequency's in turn; -1: every one)")
+    picks = [np.flatnonzero((tags == -1) | (tags // n == i)) for i in range(n_frequencies)]
+    local = {tuple(int(t) for t in np.where(tags[p] == -1, -1, tags[p] % n)) for p in picks}
+    sources = {None if returns.source is None else tuple(np.asarray(returns.source)[p].tolist()) for p in picks}
+    if len(local) != 1 or len(sources) != 1:
+        raise ValueError("tofjax.Returns: phase_image: every frequency's phase images need the same returns (the same "
+                         "number tagged with each of its phase images): a moving scene's returns made with this camera "
+                         "have them")
+    (phase_image,), (source,) = local, sources
+    index = jnp.asarray(np.stack(picks))  # (frequencies, returns of each)
+
+    def one(camera, pick):
+        return fn(camera, Returns(returns.path_m[..., pick], returns.radiance_per_w[..., pick],
+                                  returns.ambient_reflectivity, returns.radial_m, phase_image, source))
+
+    return jax.vmap(one)(cameras, index)
+
+
 _scene_flags = _jit.jit(scene_flags)
 
 
 # One program each (a vmap over the frequencies of the single frequency's programs, traced inline).
 @_jit.jit
 def _camera_predict(camera: MultiPreparedCamera, returns: Returns) -> FrameResult:
-    per = jax.vmap(lambda c: c.predict(returns))(camera.cameras)
+    per = over_frequencies(lambda c, r: c.predict(r), camera.cameras, returns, len(camera.freq.ranges))
     first = camera._first
     return FrameResult(_fused_result(per.result, camera.freq, fuse_expected(per.result, camera.freq)), returns.radial_m,
                        first.direction, first.pattern, _quality(per.quality, camera._flags(returns)))
@@ -268,7 +301,7 @@ def _camera_predict(camera: MultiPreparedCamera, returns: Returns) -> FrameResul
 
 @_jit.jit
 def _camera_prepare(camera: MultiPreparedCamera, returns: Returns) -> MultiPreparedFrame:
-    frames = jax.vmap(lambda c: c.prepare(returns))(camera.cameras)
+    frames = over_frequencies(lambda c, r: c.prepare(r), camera.cameras, returns, len(camera.freq.ranges))
     return MultiPreparedFrame(frames, camera.freq, _quality(frames.quality, camera._flags(returns)))
 
 

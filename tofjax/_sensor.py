@@ -130,13 +130,6 @@ class SensorFrame:
                            frame_id=self.frame_id, ros_version=ros_version)
 
 
-class _Timing:
-    """What the step's motion needs of a camera (:func:`tofjax._motion._over_instants` reads ``params``)."""
-
-    def __init__(self, params):
-        self.params = params
-
-
 class ToFSensor:
     """A ToF camera in a robot simulator's loop (module docstring; docs/simulators.md).
 
@@ -206,7 +199,8 @@ class ToFSensor:
         self.options = {"reflectivity": float(reflectivity), "max_range_m": float(max_range_m),
                         "edge_fraction": float(edge_fraction), "planar_tolerance": float(planar_tolerance),
                         "multipath_patches": int(multipath_patches), "multipath_bins": int(multipath_bins),
-                        "substeps": int(substeps), "max_depth_change": float(max_depth_change)}
+                        "substeps": int(substeps), "max_depth_change": float(max_depth_change),
+                        "frequencies": max(len(camera.frequencies_hz), 1)}
         self.start_time_s = float(start_time_s)
         self.frame_id = str(frame_id)
         self.steps = 0
@@ -238,9 +232,10 @@ class ToFSensor:
     def instants_s(self, substeps: int = 1) -> np.ndarray:
         """The times, s from a frame's stamp, at which to render a stack of buffers for one step
         (``step(depth=stack)``, ``stack[i]`` the scene at ``instants_s(substeps)[i]``): the centres of
-        ``substeps`` equal slices of each of the camera's phase images (tofjax's motion model,
-        docs/model.md "A camera in time: motion"; a camera of several frequencies: the first's n
-        phase images, which every frequency sees), n x ``substeps`` times in order. Each instant is
+        ``substeps`` equal slices of each of the frame's phase images (tofjax's motion model,
+        docs/model.md "A camera in time: motion"; a camera of several frequencies: each frequency's
+        phase images in turn, every one at its own time), N x ``substeps`` times in order (N the
+        frame's phase images, ``camera.timing.phase_images``). Each instant is
         exposed to its own buffer: what moves across the image during the frame (a moving edge)
         is seen where it stands at each phase image."""
         from ._motion import instants_s
@@ -248,8 +243,8 @@ class ToFSensor:
         from ._motion import MovingScene
 
         MovingScene.check_substeps(substeps, "ToFSensor.instants_s")
-        p = self.camera.params
-        return np.asarray(instants_s(int(p.pixel.n_phases), p.scene.integration_time_s, p.timing.readout_time_s,
+        t = self.timing
+        return np.asarray(instants_s(t.phase_images, t.phase_image_time_s, t.readout_time_s,
                                      int(substeps))).reshape(-1)
 
     def step(self, depth, *, intrinsics=None, fov_deg=None, depth_type: str = "planar", normals=None,
@@ -324,12 +319,12 @@ class ToFSensor:
         depth = _float_image(depth, "depth", stack=True)
         instants = None
         if depth.ndim == 3:  # one buffer per instant of the frame's exposure (instants_s)
-            n = int(self.camera.params.pixel.n_phases)
+            n = self.timing.phase_images  # every frequency's
             k = depth.shape[0]
             if k % n or not 1 <= k // n <= MAX_SUBSTEPS:
                 raise ValueError(f"depth has shape {depth.shape}: a stack of buffers holds one per instant of "
                                  f"sensor.instants_s(substeps), n x substeps = {n}, {2 * n}, ..., {MAX_SUBSTEPS * n} "
-                                 "(the camera's phase images times its instants in each)")
+                                 "(the frame's phase images, every frequency's, times its instants in each)")
             if velocity_m_per_s is not None or previous_depth is not None:
                 raise ValueError("a stack of buffers (one per instant) is the motion: give no velocity_m_per_s or "
                                  "previous_depth with it")
@@ -487,10 +482,11 @@ def _scene(camera, plan, rays, depth, radial, normals, reflectivity, segmentatio
 
         k = depth.shape[0]
         parts = jax.vmap(one)(jnp.arange(k))
-        centre = _centre_instant(params, motion[1])
+        n_images = params.pixel.n_phases * opts["frequencies"]
+        centre = _centre_instant(n_images, motion[1])
         surf, points, n_buffer, rho_buffer, surface, z = jax.tree_util.tree_map(lambda x: x[centre], parts)
         static = direct(surf)
-        returns = _stacked(jax.vmap(direct)(parts[0]), params.pixel.n_phases, motion[1], static)
+        returns = _stacked(jax.vmap(direct)(parts[0]), n_images, motion[1], static)
         shape = depth.shape[1:]
     else:
         surf, points, n_buffer, rho_buffer, surface, z = _buffer(plan, depth, radial, normals, reflectivity,
@@ -511,11 +507,11 @@ def _scene(camera, plan, rays, depth, radial, normals, reflectivity, segmentatio
     return returns
 
 
-def _centre_instant(params, substeps: int) -> int:
-    """The index of the instant nearest the frame's centre time of the n x ``substeps`` instants
-    (:func:`tofjax._motion.instants_s`; of two equally near, the earlier): by symmetry, n x substeps
-    // 2 - 1 for an even count, the middle for an odd one."""
-    count = params.pixel.n_phases * substeps
+def _centre_instant(n_images: int, substeps: int) -> int:
+    """The index of the instant nearest the frame's centre time of the ``n_images`` x ``substeps``
+    instants (:func:`tofjax._motion.instants_s`; of two equally near, the earlier): by symmetry,
+    n x substeps // 2 - 1 for an even count, the middle for an odd one."""
+    count = n_images * substeps
     return count // 2 - (1 - count % 2)
 
 
@@ -537,6 +533,7 @@ def _moving(params, settings, rays, surf, static, motion, radial, plan, z, surfa
     :func:`tofjax._motion._over_instants`): each ray's distance grows at its rate (from the buffer's
     velocity or its change since the previous step), the normals as they are."""
     from ._motion import _over_instants
+    from ._timing import frame_timing
 
     kind, value = motion
     if kind == "velocity":
@@ -559,7 +556,7 @@ def _moving(params, settings, rays, surf, static, motion, radial, plan, z, surfa
         return _with_interference(params, settings, moved, rays, direct_returns(params.illumination, fe, baseline,
                                                                                 moved, rays))
 
-    return _over_instants(_Timing(params), opts["substeps"], static, at)
+    return _over_instants(frame_timing(params, opts["frequencies"]), opts["substeps"], static, at)
 
 
 class _Frame(eqx.Module):
@@ -610,12 +607,13 @@ def _frame(prepared, returns, key, raw, shape) -> _Frame:
         return _Frame(radial, amplitude, valid, saturated, phase_std, expected.amplitude_mean_lsb, flags,
                       settings.max_phase_noise_rad, settings.min_amplitude_lsb, codes, tap_a, tap_b)
     from ._multifrequency import fusion_weights, unwrap_frequencies
+    from ._multiframe import over_frequencies
 
     freq = prepared.freq
     cameras = prepared.cameras
-    exposures = jax.vmap(lambda c: c.expose(returns))(cameras)
-    expected = jax.vmap(lambda c, e: _expected(c.chain, returns.radial_m, e))(cameras, exposures)
     n = len(freq.ranges)
+    exposures = over_frequencies(lambda c, r: c.expose(r), cameras, returns, n)  # each frequency's phase images
+    expected = jax.vmap(lambda c, e: _expected(c.chain, returns.radial_m, e))(cameras, exposures)
     per = jax.vmap(lambda ch, e, s: _draw(ch, e, key, s, raw, shape))(cameras.chain, exposures,
                                                                      jnp.arange(n, dtype=jnp.uint32))
     radial, amplitude, valid, saturated, codes, tap_a, tap_b = per
