@@ -42,6 +42,20 @@ def pytest_collection_modifyitems(config, items):
     items.sort(key=lambda item: rank.get(item.path.name, len(SLOWEST_FIRST)))  # stable: the rest keep their order
 
 
+@pytest.fixture(autouse=True)
+def _the_suites_cache_threshold():
+    """A command run in this process (``tofjax.cli.main``) turns the persistent cache on as a user's
+    does, keeping every program (threshold 0): after each test the suite's threshold comes back, so
+    the rest of the worker does not write its many small programs (3300 writes in a run instead of
+    a few hundred: 20-30 s of the workers' time, for 800 hits)."""
+    yield
+    if jax.config.jax_persistent_cache_min_compile_time_secs != _THRESHOLD_S:
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", _THRESHOLD_S)
+
+
+_THRESHOLD_S = float(os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"])
+
+
 @pytest.fixture(scope="session")
 def default_params():
     return tofjax.Params()
