@@ -126,7 +126,12 @@ def frame_rays(params: Params, settings: FrameSettings, subpixel_samples: int | 
     ``shape``: (rows, cols), default the camera's, which needs concrete camera values)."""
     s = settings.subpixel_samples if subpixel_samples is None else subpixel_samples
     check_lens(params, settings)
-    return pixel_rays(params.camera, frame_shape(params) if shape is None else shape, s, lens_distortion(settings))
+    return _pixel_rays(params.camera, frame_shape(params) if shape is None else shape, s, lens_distortion(settings))
+
+
+# One program per camera shape and sampling (called eagerly, pixel_rays' few dozen operations were as
+# many programs of their own).
+_pixel_rays = _jit.jit(pixel_rays)
 
 
 def lens_distortion(settings: FrameSettings) -> Float[Array, "5"] | None:

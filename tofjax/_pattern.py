@@ -24,6 +24,7 @@ import jax.numpy as jnp
 import jax.random as jr
 from jaxtyping import Array, Float, PRNGKeyArray
 
+from . import _jit
 from ._params import Params
 
 
@@ -76,6 +77,12 @@ def draw_pattern(params: Params, settings, shape: tuple[int, int], key: PRNGKeyA
     (:class:`tofjax.FrameSettings`); ``key`` defaults to ``jax.random.key(settings.seed)``, so the
     same seed gives the same camera."""
     key = jr.key(settings.seed) if key is None else key
+    return _draw(params, settings, shape, key)
+
+
+@_jit.jit
+def _draw(params: Params, settings, shape: tuple[int, int], key: PRNGKeyArray) -> PixelPattern:
+    """:func:`draw_pattern`'s sample, one program per shape (eagerly, its draws were a program each)."""
     k_gain, k_dark, k_phase, k_tap, k_well = jr.split(key, 5)
     normal = lambda k: jr.truncated_normal(k, -5.0, 5.0, shape, dtype=float)  # noqa: E731
     s2 = jnp.log1p(settings.prnu_sigma**2)  # log-normal with mean 1 and relative sigma prnu_sigma
