@@ -27,7 +27,7 @@ from jaxtyping import Array
 from . import _jit
 from ._analytic import analytic, moments
 from ._flags import (CAMERA_FLAGS, FLAG_INVALIDATED, FLAG_LOW_AMPLITUDE, FLAG_LOW_SIGNAL, FLAG_SATURATED)
-from ._frame import _bit, _point_charges, _sweep, scene_flags
+from ._frame import NoisyFrames, _bit, _point_charges, _sweep, scene_flags
 from ._frames import draw_delivered
 from ._framegeometry import _with_interference, frame_rays, frame_shape, intrinsics as camera_intrinsics
 from ._motion import MAX_SUBSTEPS
@@ -606,8 +606,7 @@ def _frame(prepared, returns, key, raw, shape) -> _Frame:
         flags = scene_flags(first.chain.params, settings, returns, first.direction)
         return _Frame(radial, amplitude, valid, saturated, phase_std, expected.amplitude_mean_lsb, flags,
                       settings.max_phase_noise_rad, settings.min_amplitude_lsb, codes, tap_a, tap_b)
-    from ._multifrequency import fusion_weights, unwrap_frequencies
-    from ._multiframe import over_frequencies
+    from ._multiframe import _fuse_frames, over_frequencies
 
     freq = prepared.freq
     cameras = prepared.cameras
@@ -617,14 +616,11 @@ def _frame(prepared, returns, key, raw, shape) -> _Frame:
     per = jax.vmap(lambda ch, e, s: _draw(ch, e, key, s, raw, shape))(cameras.chain, exposures,
                                                                      jnp.arange(n, dtype=jnp.uint32))
     radial, amplitude, valid, saturated, codes, tap_a, tap_b = per
-    ranges = np.asarray(freq.ranges)
-    weights = fusion_weights(expected.depth_std_m**2, ranges, freq.fusion)
-    all_valid = jnp.all(valid, axis=0)
-    phases = 2.0 * jnp.pi * jnp.where(all_valid[None], radial, 0.0)[:, None] / freq.column(3)
-    fused = unwrap_frequencies(phases, ranges, freq.extended, weights[:, None])[0]
+    # Fused as MultiPreparedCamera.sample fuses its frames (one frame: a frames axis of 1).
+    fused = _fuse_frames(NoisyFrames(radial[:, None], amplitude[:, None], valid[:, None]), freq, expected.depth_std_m)
     phase_std = expected.depth_std_m * 2.0 * jnp.pi / freq.column(2)
     flags = scene_flags(first.chain.params, settings, returns, first.direction, jnp.asarray(freq.extended))
-    return _Frame(jnp.where(all_valid, fused, jnp.nan), amplitude[0], all_valid, jnp.any(saturated, axis=0),
+    return _Frame(fused.radial_m[0], fused.amplitude_lsb[0], fused.valid[0], jnp.any(saturated, axis=0),
                   jnp.max(phase_std, axis=0), jnp.min(expected.amplitude_mean_lsb, axis=0), flags,
                   settings.max_phase_noise_rad, settings.min_amplitude_lsb, codes, tap_a, tap_b)
 
