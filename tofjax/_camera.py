@@ -142,7 +142,9 @@ class Camera(eqx.Module):
         if isinstance(scene, MovingScene):
             return moving_returns(self, scene, sun_direction=sun_direction, bins=bins)
         if isinstance(scene, list | tuple):
-            n = self.params.pixel.n_phases * max(len(self.frequencies_hz), 1)  # every frequency's, in turn
+            from ._timing import frame_phase_images
+
+            n = frame_phase_images(self.params, self._n_frequencies)  # every frequency's, in turn
             if len(scene) != n:
                 what = ("pixel.n_phases" if not self.multifrequency else
                         f"pixel.n_phases x {len(self.frequencies_hz)} frequencies, each frequency's in turn")
@@ -191,6 +193,11 @@ class Camera(eqx.Module):
         return self.prepare().prepare(self.returns(scene))
 
     @property
+    def _n_frequencies(self) -> int:
+        """The modulation frequencies a frame takes: 1, or ``len(frequencies_hz)``."""
+        return max(len(self.frequencies_hz), 1)
+
+    @property
     def timing(self):
         """The frame's timing and the illumination's power over it (``tofjax._timing.FrameTiming``:
         phase images, exposure, frame rate, lit fraction, peak / lit / average power), at the
@@ -200,7 +207,7 @@ class Camera(eqx.Module):
         are traced, it is not checked)."""
         from ._timing import check_frame_rate, frame_timing
 
-        timing = frame_timing(self.params, max(len(self.frequencies_hz), 1))
+        timing = frame_timing(self.params, self._n_frequencies)
         if not _jit.traced(timing):
             check_frame_rate(timing)
         return timing

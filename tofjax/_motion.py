@@ -170,7 +170,7 @@ def _timing(camera):
     instants are where the scene is seen, whatever the frame rate."""
     from ._timing import frame_timing
 
-    return frame_timing(camera.params, max(len(camera.frequencies_hz), 1))
+    return frame_timing(camera.params, camera._n_frequencies)
 
 
 def _over_instants(timing, substeps: int, static: Returns, returns_at) -> Returns:

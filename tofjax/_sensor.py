@@ -200,7 +200,7 @@ class ToFSensor:
                         "edge_fraction": float(edge_fraction), "planar_tolerance": float(planar_tolerance),
                         "multipath_patches": int(multipath_patches), "multipath_bins": int(multipath_bins),
                         "substeps": int(substeps), "max_depth_change": float(max_depth_change),
-                        "frequencies": max(len(camera.frequencies_hz), 1)}
+                        "frequencies": camera._n_frequencies}
         self.start_time_s = float(start_time_s)
         self.frame_id = str(frame_id)
         self.steps = 0
@@ -474,6 +474,7 @@ def _scene(camera, plan, rays, depth, radial, normals, reflectivity, segmentatio
 
     if motion is not None and motion[0] == "instants":
         from ._motion import _stacked
+        from ._timing import frame_phase_images
 
         def one(i):
             pick = (lambda x: None if x is None else x[i])  # noqa: E731
@@ -482,7 +483,7 @@ def _scene(camera, plan, rays, depth, radial, normals, reflectivity, segmentatio
 
         k = depth.shape[0]
         parts = jax.vmap(one)(jnp.arange(k))
-        n_images = params.pixel.n_phases * opts["frequencies"]
+        n_images = frame_phase_images(params, opts["frequencies"])
         centre = _centre_instant(n_images, motion[1])
         surf, points, n_buffer, rho_buffer, surface, z = jax.tree_util.tree_map(lambda x: x[centre], parts)
         static = direct(surf)

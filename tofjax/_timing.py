@@ -111,6 +111,12 @@ class EyeSafety(eqx.Module):
         return jnp.maximum(jnp.maximum(r["average"], r["pulse"]), r["burst"])
 
 
+def frame_phase_images(params: Params, n_frequencies: int = 1) -> int:
+    """N, a frame's phase images: ``pixel.n_phases`` of each of ``n_frequencies`` frequencies, each
+    frequency's in turn (the frame's phase image j is phase j mod n of frequency j // n)."""
+    return params.pixel.n_phases * n_frequencies
+
+
 # frame_timing and eye_safety are compiled, one program each: run eagerly, each of their few dozen
 # operations loaded a program of its own from the compilation cache, 0.9 s of every warm `tofjax
 # simulate` and `render`, which print them (docs/model.md, "Performance", measurement 30).
@@ -118,7 +124,7 @@ class EyeSafety(eqx.Module):
 def frame_timing(params: Params, n_frequencies: int = 1) -> FrameTiming:
     """The :class:`FrameTiming` of ``params`` (``n_frequencies`` modulation frequencies per frame).
     A configured frame rate above the maximum is not clamped: :func:`check_frame_rate` refuses it."""
-    n = params.pixel.n_phases * n_frequencies
+    n = frame_phase_images(params, n_frequencies)
     t = params.scene.integration_time_s
     t_ro = params.timing.readout_time_s
     fastest = 1.0 / (n * (t + t_ro))
