@@ -24,6 +24,7 @@ import tofjax  # noqa: E402, F401  (float64 on, before jax is imported)
 
 import jax  # noqa: E402
 import pytest  # noqa: E402
+from helpers import out_of_the_collectors_way  # noqa: E402
 
 jax.config.update("jax_numpy_rank_promotion", "raise")
 jax.config.update("jax_numpy_dtype_promotion", "strict")
@@ -40,6 +41,16 @@ SLOWEST_FIRST = ("test_readme.py", "test_notebooks.py", "test_outputs.py", "test
 def pytest_collection_modifyitems(config, items):
     rank = {name: i for i, name in enumerate(SLOWEST_FIRST)}
     items.sort(key=lambda item: rank.get(item.path.name, len(SLOWEST_FIRST)))  # stable: the rest keep their order
+
+
+@pytest.fixture(autouse=True)
+def _survivors_out_of_the_collectors_way():
+    """After each test, what survives it moves out of the garbage collector's way
+    (helpers.out_of_the_collectors_way): the full collections scanned a worker's 4 million objects 31
+    times, 20-22 s of each worker's time; now 3-8 s. The workers' peak memory stays the same
+    (test_compare and test_frame in one process: 2.9-3.0 GB either way)."""
+    yield
+    out_of_the_collectors_way()
 
 
 @pytest.fixture(autouse=True)

@@ -1,6 +1,7 @@
 """Helpers shared by the test modules (``from helpers import ...``; tests/ is on sys.path)."""
 
 import contextlib
+import gc
 
 import jax
 import numpy as np
@@ -101,3 +102,13 @@ def examples_as_scripts():
         progress.compile_notice(False)
         jax.config.update("jax_compilation_cache_dir", before[0])
         jax.config.update("jax_persistent_cache_min_compile_time_secs", before[1])
+
+
+def out_of_the_collectors_way() -> None:
+    """Collect the young garbage and move every surviving object out of the garbage collector's
+    generations (``gc.freeze``): after each test (tests/conftest.py), and between the blocks of a
+    long example. A worker holds millions of objects by the end (JAX's traced and compiled
+    programs), and CPython's full collections scanned them all, each taking longer as the worker
+    grew (20-22 s of each worker's time). Cycles that became garbage earlier are not collected."""
+    gc.collect(1)
+    gc.freeze()

@@ -77,12 +77,18 @@ def kernel():
     km.shutdown_kernel(now=True)
 
 
+#: Run before each notebook in the shared kernel: an empty namespace, figures closed, its own folder, and
+#: what the notebooks before it left (compiled programs) moved out of the garbage collector's way, as
+#: tests/conftest.py does after each test.
 _FRESH = """get_ipython().run_line_magic("reset", "-f")
+import gc as _gc
 import os as _os
 import matplotlib.pyplot as _plt
 _plt.close("all")
 _os.chdir({folder!r})
-del _os, _plt"""
+_gc.collect(1)
+_gc.freeze()
+del _gc, _os, _plt"""
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)

@@ -18,7 +18,7 @@ import pytest
 from tofjax import sweepfile as sf
 from tofjax.cli import main
 
-from helpers import examples_as_scripts
+from helpers import examples_as_scripts, out_of_the_collectors_way
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -130,6 +130,7 @@ def test_every_readme_block_runs_as_written(tmp_path, monkeypatch, capsys):
             else:
                 pytest.fail(f"README.md block {i + 1} is {lang!r}: add how to run it here")
             ran += 1
+            out_of_the_collectors_way()  # a long test: each block's survivors out of the collector's way
     captured = capsys.readouterr()
     assert "Traceback" not in captured.err
     assert ran >= 7
