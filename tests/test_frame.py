@@ -562,6 +562,36 @@ def test_render_command_writes_every_output(tmp_path, capsys):
     assert "data:image/png;base64" in report and "frame: 4 phase images of 2 ms" in report
 
 
+@pytest.mark.parametrize("shape", [(172, 224), (240, 60), (4, 320), (1, 1)])
+def test_a_maps_layout_keeps_every_label_inside_and_square_pixels(shape):
+    """render's colour maps are laid out by fixed margins (no constrained layout, which drew each figure
+    twice): whatever the frame's shape and however many lines the title has, the title, tick labels,
+    axis labels and the colour bar's text lie inside the figure, and the map's pixels are square
+    (a strip of a few rows is drawn at least 1.5 in high, stretched)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    rng = np.random.default_rng(0)
+    image = rng.uniform(-12345.0, 12345.0, shape)
+    for name in ("error_mm", "depth_std_mm"):  # a title of two lines, and of one
+        title, unit, cmap = frameio.MAPS[name]
+        fig = frameio.map_figure(image, title, unit, cmap)
+        canvas = FigureCanvasAgg(fig)
+        canvas.draw()  # places the axis labels
+        renderer = canvas.get_renderer()
+        drawn = fig.get_tightbbox(renderer)  # every drawn artist's extent, inches
+        width_in, height_in = fig.get_size_inches()
+        assert drawn.x0 >= -0.01 and drawn.y0 >= -0.01 and drawn.x1 <= width_in + 0.01 and drawn.y1 <= height_in + 0.01, \
+            (shape, name, drawn, (width_in, height_in))
+        # The title stands above the map.
+        map_box = fig.axes[0].get_window_extent(renderer)
+        assert fig.axes[0].title.get_window_extent(renderer).y0 >= map_box.y1
+        width, height = map_box.width, map_box.height
+        if min(width, height) > frameio.MAP_MIN_IN * fig.dpi + 1:  # not a strip drawn at its least height
+            assert width / height == pytest.approx(shape[1] / shape[0], rel=1e-2)
+        else:
+            assert min(width, height) == pytest.approx(frameio.MAP_MIN_IN * fig.dpi, abs=1.0)
+
+
 @pytest.mark.parametrize("args, message", [
     (["--scene", "walll"], "--scene 'walll' is not a built-in scene: allowed wall, "),
     (["--scene", "wall:distance_m=-2"], "--scene wall: distance_m = -2 is out of range: allowed 0.01 <= value <= 1000"),

@@ -225,16 +225,25 @@ def write_png16(path, image: np.ndarray) -> Path:
 
 #: A colour map's layout in inches (:func:`write_png`): the map's longer side and the least of its
 #: shorter one, and the margins around it for the row ticks and label (left), the column ticks and
-#: label (bottom), the title (top), the colour bar with its ticks and label (right: a gap, the bar,
+#: label (bottom), above the title's lines (top), the colour bar with its ticks and label (right: a gap, the bar,
 #: then its text).
 MAP_SIZE_IN, MAP_MIN_IN = 5.0, 1.5
-MAP_MARGINS_IN = {"left": 0.75, "bottom": 0.6, "top": 0.4, "right": 1.3}
+MAP_MARGINS_IN = {"left": 0.75, "bottom": 0.6, "top": 0.2, "right": 1.3}
+#: The top margin's height per line of the title, in inches.
+TITLE_LINE_IN = 0.22
 COLOR_BAR_GAP_IN, COLOR_BAR_WIDTH_IN = 0.2, 0.18
 
 
 def write_png(path, image: np.ndarray, title: str, unit: str, cmap: str = "viridis", vmin=None, vmax=None) -> Path:
     """One image as a PNG colour map with a colour bar and title (pixel (0, 0) at the top left);
-    ``cmap="categorical"``: the flags, one colour per combination present and a legend naming them.
+    ``cmap="categorical"``: the flags, one colour per combination present and a legend naming them
+    (:func:`map_figure`)."""
+    save_figure(map_figure(image, title, unit, cmap, vmin, vmax), path)
+    return Path(path)
+
+
+def map_figure(image: np.ndarray, title: str, unit: str, cmap: str = "viridis", vmin=None, vmax=None):
+    """:func:`write_png`'s figure (a ``matplotlib.figure.Figure``).
 
     The colour maps are placed by fixed margins (:data:`MAP_MARGINS_IN`), the map at its pixels'
     aspect ratio: matplotlib's constrained layout drew every figure twice and took half of a render's
@@ -253,10 +262,13 @@ def write_png(path, image: np.ndarray, title: str, unit: str, cmap: str = "virid
         # (a strip of a few rows is stretched, not drawn as a line).
         map_w, map_h = ((MAP_SIZE_IN, max(MAP_SIZE_IN * rows / cols, MAP_MIN_IN)) if cols >= rows
                         else (max(MAP_SIZE_IN * cols / rows, MAP_MIN_IN), MAP_SIZE_IN))
-        width, height = map_w + m["left"] + m["right"], map_h + m["bottom"] + m["top"]
+        # A tall map stands in the middle of a figure as wide as a wide one's, where its title fits.
+        top = m["top"] + TITLE_LINE_IN * (title.count("\n") + 1)
+        width, height = MAP_SIZE_IN + m["left"] + m["right"], map_h + m["bottom"] + top
+        left = m["left"] + (MAP_SIZE_IN - map_w) / 2
         fig = Figure(figsize=(width, height), dpi=110)
-        ax = fig.add_axes((m["left"] / width, m["bottom"] / height, map_w / width, map_h / height))
-        bar = fig.add_axes(((m["left"] + map_w + COLOR_BAR_GAP_IN) / width, m["bottom"] / height,
+        ax = fig.add_axes((left / width, m["bottom"] / height, map_w / width, map_h / height))
+        bar = fig.add_axes(((left + map_w + COLOR_BAR_GAP_IN) / width, m["bottom"] / height,
                             COLOR_BAR_WIDTH_IN / width, map_h / height))
         if vmin is None:
             vmin, vmax = color_limits(image)
@@ -266,8 +278,7 @@ def write_png(path, image: np.ndarray, title: str, unit: str, cmap: str = "virid
     ax.set_title(title)
     ax.set_xlabel("column")
     ax.set_ylabel("row")
-    save_figure(fig, path)
-    return Path(path)
+    return fig
 
 
 def color_limits(image: np.ndarray) -> tuple[float | None, float | None]:
