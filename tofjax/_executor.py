@@ -18,7 +18,8 @@ program (:func:`run_blocks`), whose host callbacks report the chunks.
 
 Called directly or traced. Whether a call runs with concrete inputs or inside a ``jit``, ``vmap`` or
 ``grad`` of the caller's is decided here alone: :func:`padded` (a sweep padded so that sweeps of
-similar length share compiled programs, only when called directly), :func:`programs` (work split
+similar length share compiled programs, only when called directly, and for a Monte Carlo only while
+the padding is cheap), :func:`programs` (work split
 into several compiled programs when called directly, one traced function otherwise) and the
 progress fork of :func:`execute`. The physics modules hand over both ways and never ask.
 """
@@ -269,14 +270,27 @@ def execute(setup: Callable, consts: Callable, finish: Callable, args: tuple, *,
                            progress)
 
 
-def padded(sweep, args):
+#: A Monte Carlo sweep called directly runs padded as :func:`tofjax.predict`'s does while its padded
+#: points draw at most this many phase images more: about 10 ms at XLA's default settings on a CPU
+#: (10 ns a phase image), where a new sweep length compiles for 1-3 s. Longer runs keep their length:
+#: there the padding would cost every call more than the compile it saves once.
+PADDING_PHASE_IMAGES = 1 << 20
+
+
+def padded(sweep, args, phase_images_per_point: int = 0):
     """``sweep`` padded with copies of its last point (:func:`tofjax._sweep.pad_sweep`: sweeps of
     similar length share the compiled programs; the caller cuts the padding from the result) when
-    called with concrete ``args``; as it is inside a transformation of the caller's, whose program is
-    compiled for its shapes once anyway."""
-    from ._sweep import pad_sweep
+    called with concrete ``args`` and the padding draws at most :data:`PADDING_PHASE_IMAGES` phase
+    images (``phase_images_per_point`` of each point's; 0: the analytic path, which draws none); as
+    it is inside a transformation of the caller's, whose program is compiled for its shapes once
+    anyway."""
+    from ._sweep import pad_sweep, padded_samples
 
-    return sweep if _jit.traced(args) else pad_sweep(sweep)
+    if _jit.traced(args) or len(sweep.shape) != 1:
+        return sweep
+    if (padded_samples(sweep.samples) - sweep.samples) * phase_images_per_point > PADDING_PHASE_IMAGES:
+        return sweep
+    return pad_sweep(sweep)
 
 
 def programs(split: Callable, whole: Callable, args: tuple):

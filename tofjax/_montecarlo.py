@@ -12,7 +12,7 @@ from jaxtyping import Array, PRNGKeyArray
 from ._analytic import full_well_fraction, headroom, unwrap_if_sweep
 from ._chain import Chain, kept_chain
 from ._depth import unwrap_along_sweep
-from . import _jit
+from . import _executor, _jit
 from ._executor import BLOCK_POINTS, CHUNK_ELEMENTS, execute, run_blocks
 from ._limits import kept_bytes_limit, kept_limit_text, size_text
 from ._frames import PointConstants, Sums, draw_delivered, frame_statistics, point_constants, reduce_frames
@@ -23,7 +23,7 @@ from ._processing import draw_factor
 from ._random import key_words
 from ._result import Result
 from ._smooth import Smooth
-from ._sweep import Sweep, check_inputs
+from ._sweep import Sweep, check_inputs, unpad
 
 
 def kept_bytes_per_frame(n_phases: int, raw: bool = False) -> int:
@@ -215,6 +215,10 @@ def simulate(
       program (which that cache never keeps).
 
     **Returns:** a :class:`tofjax.Result` with ``method = "mc"``.
+
+    Called directly, a 1-D sweep runs padded as :func:`tofjax.predict`'s while the padding draws at
+    most :data:`tofjax._executor.PADDING_PHASE_IMAGES` phase images (sweeps of similar length share
+    the compiled programs; a point's frames are its own, so the padding changes none of them).
     """
     check_inputs(params, sweep)
     check_counts(iterations, keep_frames, sweep.samples, params.pixel.n_phases, raw=raw)
@@ -222,10 +226,13 @@ def simulate(
     if fixed_pattern and sample is not None:
         raise ValueError("give fixed_pattern or pattern, not both: fixed_pattern draws the taps' dark slopes from the "
                          "key, pattern is the pixel's whole sample")
-    chain = kept_chain(params, smooth, sweep.samples, sample, processing)
-    return execute(_setup, _consts, _finish, (params, sweep, key, smooth, fixed_pattern, sample, raw, iterations, chain),
-                   points=sweep.samples, frames=iterations, keep=keep_frames, phases=drawn_phases(chain),
-                   progress=progress)
+    padded = _executor.padded(sweep, (params, sweep, key, smooth, sample, processing),
+                              iterations * params.pixel.n_phases * draw_factor(processing, image=False))
+    chain = kept_chain(params, smooth, padded.samples, sample, processing)
+    return unpad(execute(_setup, _consts, _finish,
+                         (params, padded, key, smooth, fixed_pattern, sample, raw, iterations, chain),
+                         points=padded.samples, frames=iterations, keep=keep_frames, phases=drawn_phases(chain),
+                         progress=progress), sweep, padded)
 
 
 def drawn_phases(chain: Chain, image: bool = False) -> int:

@@ -39,6 +39,7 @@ The frames of every frequency are drawn together, chunk by chunk, by the Monte C
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from functools import reduce
 
@@ -49,7 +50,7 @@ import jax.random as jr
 import numpy as np
 from jaxtyping import Array, Bool, Float, PRNGKeyArray
 
-from . import _jit
+from . import _executor, _jit
 from ._analytic import analytic, moments
 from ._chain import Chain, build_chain
 from ._executor import execute
@@ -62,7 +63,7 @@ from ._random import key_words
 from ._result import Result
 from ._schema import FUSIONS
 from ._smooth import Smooth
-from ._sweep import Sweep, check_inputs
+from ._sweep import Sweep, check_inputs, unpad
 
 
 def extended_range_m(frequencies_hz, speed_of_light_m_per_s: float = 299_792_458.0) -> float:
@@ -258,10 +259,25 @@ def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, ite
     c = float(params.constants.speed_of_light_m_per_s)
     ranges = tuple(float(x) for x in c / (2.0 * freqs))
     freqs, extended = jnp.asarray(freqs), float(extended_range_m(freqs, c))
-    return execute(_run_setup, _run_consts, _run_finish,
-                   (params, sweep, key, freqs, extended, ranges, fusion, iterations, raw, processing),
-                   points=sweep.samples, frames=iterations, keep=keep_frames,
-                   phases=params.pixel.n_phases * draw_factor(processing, image=False), progress=progress)
+    phases = params.pixel.n_phases * draw_factor(processing, image=False)
+    padded = _executor.padded(sweep, (params, sweep, key, processing), iterations * phases * len(ranges))
+    return _unpadded(execute(_run_setup, _run_consts, _run_finish,
+                             (params, padded, key, freqs, extended, ranges, fusion, iterations, raw, processing),
+                             points=padded.samples, frames=iterations, keep=keep_frames, phases=phases,
+                             progress=progress), sweep, padded)
+
+
+def _unpadded(result: MultiFrequencyResult, sweep: Sweep, padded: Sweep) -> MultiFrequencyResult:
+    """``result`` of the ``padded`` sweep (:func:`tofjax._executor.padded`) with the padding cut: the
+    per-frequency leaves' points axis follows the frequencies' axis; the frequencies themselves and
+    the extended range are per call."""
+    if padded is sweep:
+        return result
+    per = unpad(result.per_frequency, sweep, padded, axis=1)
+    points = unpad(dataclasses.replace(result, per_frequency=None, frequencies_hz=None, extended_range_m=None),
+                   sweep, padded)
+    return dataclasses.replace(points, per_frequency=per, frequencies_hz=result.frequencies_hz,
+                               extended_range_m=result.extended_range_m)
 
 
 class _Step(eqx.Module):

@@ -168,14 +168,16 @@ def pad_sweep(sweep: Sweep) -> Sweep:
     return Sweep(sweep.variable, pad(sweep.values), **{name: pad(getattr(sweep, name)) for name in OPERATING_POINT_COLUMNS})
 
 
-def unpad(tree, sweep: Sweep, padded: Sweep):
+def unpad(tree, sweep: Sweep, padded: Sweep, axis: int = 0):
     """``tree``, a result of ``padded`` (:func:`pad_sweep` of ``sweep``), with the padding cut from
-    every array leaf's leading (points) axis; scalars (per call, e.g. the unambiguity range) kept."""
+    every array leaf's points axis ``axis`` (1: a multi-frequency result's per-frequency leaves, after
+    the frequencies' axis); leaves of no more than ``axis`` dimensions (per call, e.g. the unambiguity
+    range) kept."""
     if padded is sweep:
         return tree
     n = sweep.samples
 
     def cut(x):  # sliced on the host: a slice would compile for each new length
-        return _on_device_of(x, np.asarray(x)[:n]) if jnp.ndim(x) >= 1 else x
+        return _on_device_of(x, np.asarray(x)[(slice(None),) * axis + (slice(n),)]) if jnp.ndim(x) > axis else x
 
     return jax.tree_util.tree_map(cut, tree)
