@@ -1,7 +1,7 @@
 """Posterior sampling with emcee over the same parameters and residuals as the least squares.
 
-The log-probability is jitted and vmapped over walkers (``vectorize=True``), in the unconstrained
-space: -chi^2/2 plus the log prior (uniform within the bounds by default, optionally Gaussian)
+The log-probability is jitted and vmapped over walkers (``vectorize=True``), what depends on the
+problem alone computed once per run (:mod:`fitting._hoist`), in the unconstrained space: -chi^2/2 plus the log prior (uniform within the bounds by default, optionally Gaussian)
 plus the log-Jacobian of the bound transform. Walkers start in a small Gaussian ball around the
 least-squares solution. Burn-in is twice the longest autocorrelation time and the chain is thinned
 by half the shortest; a chain shorter than 50 autocorrelation times triggers a
@@ -17,6 +17,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
+from ._hoist import hoisted
 from ._least_squares import LeastSquaresResult
 from ._problem import Problem, batched_log_posterior
 
@@ -103,12 +104,15 @@ def sample_posterior(problem: Problem, least_squares: LeastSquaresResult, *, wal
     if steps < 1:
         raise ValueError(f"steps = {steps} is out of range: allowed integer >= 1")
     half = walkers // 2
+    # What depends on the problem alone (the camera's tables, the sweeps) is computed once here, not
+    # in each of the run's calls (fitting._hoist).
+    log_posterior = hoisted(batched_log_posterior, problem, np.zeros((half, ndim)))
 
     def log_prob(u: np.ndarray) -> np.ndarray:
         # emcee evaluates all walkers once (the start) and then half of them per move: the start
         # in halves too, so that one batch shape (one compiled program) serves the whole run.
         u = np.asarray(u, dtype=float)
-        out = np.concatenate([np.asarray(batched_log_posterior(problem, u[i:i + half]), dtype=float)
+        out = np.concatenate([np.asarray(log_posterior(u[i:i + half]), dtype=float)
                               for i in range(0, len(u), half)])
         out[~np.isfinite(out)] = -np.inf
         return out

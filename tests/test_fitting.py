@@ -247,6 +247,31 @@ def test_posterior_agrees_with_least_squares(example_fit):
         ft.sample_posterior(example_fit.problem, example_fit.least_squares, walkers=5, steps=10)
 
 
+def test_the_posterior_computes_what_depends_on_the_problem_once(example_fit):
+    """sample_posterior's log-posterior (fitting._hoist): the camera's tables (the correlation's FFTs)
+    run once, in the problem's own program, not in the per-call one, and its values are the whole
+    program's, to the bit."""
+    from fitting._hoist import hoisted
+    from fitting._problem import batched_log_posterior
+
+    problem, ls = example_fit.problem, example_fit.least_squares
+    u = np.asarray(ls.unconstrained) + 0.05 * np.random.default_rng(0).standard_normal((8, problem.n_params))
+    call = hoisted(batched_log_posterior, problem, np.zeros_like(u))
+    np.testing.assert_array_equal(np.asarray(call(u)), np.asarray(batched_log_posterior(problem, u)))
+
+    def primitives(jaxpr):  # every primitive, inner programs' (jit, scan, ...) too
+        for eqn in jaxpr.eqns:
+            yield eqn.primitive.name
+            for value in eqn.params.values():
+                inner = getattr(value, "jaxpr", value)
+                if hasattr(inner, "eqns"):
+                    yield from primitives(inner)
+
+    assert "fft" in set(primitives(call.once.jaxpr)) and "fft" not in set(primitives(call.per_call.jaxpr))
+    with pytest.raises(ValueError, match="structure"):
+        call((u, u))
+
+
 def test_a_gaussian_prior_pulls_the_posterior(config, example_fit):
     """A prior 10 x narrower than the data's sigma, centred 3 sigma away, dominates that parameter."""
     ls = example_fit.least_squares
