@@ -11,6 +11,8 @@ from tofjax import plots
 from tofjax import sweepfile as sf
 from tofjax.cli import main
 
+from helpers import traces
+
 
 def _ideal(shape="pulse", duty=0.5, n=4, noise=False):
     return tj.Params(pixel=tj.Pixel(n_phases=n, noise=noise), adc=tj.ADC(enabled=False),
@@ -43,6 +45,23 @@ def test_dual_frequency_extends_the_range():
     # combining frequencies beats each one alone where unwrapping is reliable
     per = np.asarray(noisy.per_frequency.depth_std_m)
     assert np.all(np.asarray(noisy.depth_std_m)[:5] < per[:, :5].min(axis=0))
+    # Called directly, the 12 points run padded to 16 (tofjax._executor.padded): a 16-point sweep of
+    # those 12 and 4 more runs the same programs, and its first 12 points are those frames, to the bit
+    # (the per-frequency leaves' points after the frequencies' axis).
+    more = np.concatenate([np.linspace(0.5, 7.4, 12), [1.0, 2.0, 3.0, 4.0]])
+    traced, longer = traces(lambda: tj.simulate(tj.Camera(tj.Params(scene=tj.Scene(illuminance_lx=0.0)),
+                                                          frequencies_hz=[80.32e6, 60.24e6]),
+                                                tj.Sweep("distance", more), jax.random.key(1), 1500, keep_frames=20))
+    assert traced == [], f"a 16-point sweep should run the padded 12-point sweep's programs: {traced}"
+    for (path, a), b in zip(jax.tree_util.tree_leaves_with_path(noisy), jax.tree_util.tree_leaves(longer), strict=True):
+        name = jax.tree_util.keystr(path)
+        per_frequency = "per_frequency" in name  # (frequencies, points, ...)
+        if name.endswith(("frequencies_hz", "extended_range_m")) or np.ndim(b) <= int(per_frequency):
+            expected = b  # per call
+        else:
+            expected = b[:, :12] if per_frequency else b[:12]
+        assert np.shape(a) == np.shape(expected), name
+        np.testing.assert_array_equal(a, expected, err_msg=name)
     # With progress, the chunks run from the host (tofjax._executor.drive_blocks): the same result, to
     # rounding (the tap voltages' difference is computed in another program).
     loud = tj.simulate(tj.Camera(tj.Params(scene=tj.Scene(illuminance_lx=0.0)), frequencies_hz=[80.32e6, 60.24e6]), tj.Sweep.linspace("distance", 0.5, 7.4, 12), jax.random.key(1), 1500, keep_frames=20, progress=True)

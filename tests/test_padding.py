@@ -67,36 +67,24 @@ def test_no_padding_under_a_transformation(monkeypatch):
 def test_monte_carlo_padding_changes_nothing_and_shares_the_program(monkeypatch):
     """simulate called directly pads a sweep as predict does while the padding draws at most
     PADDING_PHASE_IMAGES phase images: a point's frames are its own (the same key, the same frames
-    of points 0-12 in a 13-point sweep run as 16 and in the 16-point sweep), the 13-point sweep runs
-    the 16-point programs, and one frequency or several alike (the per-frequency leaves' points
-    follow the frequencies' axis); a run whose padding would draw more keeps its length. (4 frames,
-    4 kept: the programs of the next test's simulate.)"""
+    of points 0-12 in a 13-point sweep run as 16 and in the 16-point sweep) and the 13-point sweep
+    runs the 16-point programs; a run whose padding would draw more keeps its length. (4 frames, 4
+    kept: the programs of the next test's simulate. Several frequencies: test_multifrequency.py.)"""
     from tofjax import _executor
 
     asked, decide = [], _executor.padded
     monkeypatch.setattr(_executor, "padded", lambda sweep, args, per_point=0: asked.append(per_point)
                         or decide(sweep, args, per_point))
-    params = tj.Params()
-    dual = tj.Camera(params, frequencies_hz=(80.32e6, 60.24e6))
-    key = jax.random.key(5)
-    for camera in (params, dual):
-        whole = tj.simulate(camera, tj.Sweep("distance", DISTANCES), key, 4, keep_frames=4)
-        traced, part = traces(lambda camera=camera: tj.simulate(camera, tj.Sweep("distance", DISTANCES[:13]), key, 4,
-                                                                keep_frames=4))
-        assert traced == [], f"a 13-point sweep should run the 16-point programs, compiling nothing: {traced}"
-        leaves = jax.tree_util.tree_leaves_with_path(part)
-        assert len(leaves) == len(jax.tree_util.tree_leaves(whole))
-        for (path, a), (_, b) in zip(leaves, jax.tree_util.tree_leaves_with_path(whole), strict=True):
-            name = jax.tree_util.keystr(path)
-            per_frequency = "per_frequency" in name  # (frequencies, points, ...)
-            if name.endswith(("frequencies_hz", "extended_range_m")) or np.ndim(b) <= int(per_frequency):
-                expected = b  # per call
-            else:
-                expected = b[:, :13] if per_frequency else b[:13]
-            assert np.shape(a) == np.shape(expected), name
-            np.testing.assert_array_equal(a, expected, err_msg=name)
+    params, key = tj.Params(), jax.random.key(5)
+    whole = tj.simulate(params, tj.Sweep("distance", DISTANCES), key, 4, keep_frames=4)
+    traced, part = traces(lambda: tj.simulate(params, tj.Sweep("distance", DISTANCES[:13]), key, 4, keep_frames=4))
+    assert traced == [], f"a 13-point sweep should run the 16-point programs, compiling nothing: {traced}"
+    for (path, a), b in zip(jax.tree_util.tree_leaves_with_path(part), jax.tree_util.tree_leaves(whole), strict=True):
+        expected = b[:13] if np.ndim(b) else b
+        assert np.shape(a) == np.shape(expected), jax.tree_util.keystr(path)
+        np.testing.assert_array_equal(a, expected, err_msg=jax.tree_util.keystr(path))
     n_phases = params.pixel.n_phases
-    assert asked == [4 * n_phases] * 2 + [4 * n_phases * 2] * 2  # the phase images a point draws: 2 frequencies
+    assert asked == [4 * n_phases] * 2  # the phase images a point draws
     sweep = tj.Sweep.linspace("distance", 0.5, 1.5, 17)  # padded to 32: 15 points more
     frames = _executor.PADDING_PHASE_IMAGES // (15 * n_phases)
     assert decide(sweep, (params,), frames * n_phases).samples == 32
