@@ -19,7 +19,6 @@ import sys
 import time
 from pathlib import Path
 
-import nbformat
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -57,6 +56,8 @@ def _free_port() -> int:
 def voila(tmp_path):
     """Voila serving a notebook with the explorer at the defaults, in ``tmp_path`` (the kernel's
     working directory: the TOML files go there); yields (url, folder); stopped afterwards."""
+    import nbformat  # here, not at collection: it imports jsonschema's format checkers (2 s)
+
     _requirements()
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("import tofjax as tj\nex = tj.explorer()\nex")])
     nbformat.write(nb, tmp_path / "explorer.ipynb")

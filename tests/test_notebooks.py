@@ -6,7 +6,6 @@ import ast
 import re
 from pathlib import Path
 
-import nbformat
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -17,6 +16,8 @@ EXPECTED = ["01_quickstart", "02_waveforms_and_phases", "03_noise_and_sbi", "04_
 
 
 def _read(path):
+    import nbformat  # at first use: it imports jsonschema's format checkers (2 s), which collection need not wait for
+
     return nbformat.read(path, as_version=4)
 
 
@@ -26,6 +27,8 @@ def test_the_ten_notebooks_exist():
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
 def test_stored_without_outputs(path):
+    import nbformat
+
     nb = _read(path)
     nbformat.validate(nb)
     for i, cell in enumerate(nb.cells):
@@ -93,6 +96,7 @@ del _gc, _os, _plt"""
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
 def test_executes_top_to_bottom(path, kernel):
+    import nbformat
     from nbclient import NotebookClient
 
     nb = _read(path)
