@@ -1,8 +1,9 @@
 """Posterior sampling with emcee over the same parameters and residuals as the least squares.
 
 The log-probability is jitted and vmapped over walkers (``vectorize=True``), what depends on the
-problem alone computed once per run (:mod:`fitting._hoist`), in the unconstrained space: -chi^2/2 plus the log prior (uniform within the bounds by default, optionally Gaussian)
-plus the log-Jacobian of the bound transform. Walkers start in a small Gaussian ball around the
+problem alone computed once per run (:mod:`fitting._hoist`), in the unconstrained space: -chi^2/2
+plus the log prior (uniform within the bounds by default, optionally Gaussian) plus the
+log-Jacobian of the bound transform. Walkers start in a small Gaussian ball around the
 least-squares solution. Burn-in is twice the longest autocorrelation time and the chain is thinned
 by half the shortest; a chain shorter than 50 autocorrelation times triggers a
 :class:`ShortChainWarning`.

@@ -286,11 +286,11 @@ def padded(sweep, args, phase_images_per_point: int = 0):
     anyway."""
     from ._sweep import pad_sweep, padded_samples
 
-    if _jit.traced(args) or len(sweep.shape) != 1:
+    if _jit.traced(args):
         return sweep
     if (padded_samples(sweep.samples) - sweep.samples) * phase_images_per_point > PADDING_PHASE_IMAGES:
         return sweep
-    return pad_sweep(sweep)
+    return pad_sweep(sweep)  # a sweep of another shape as it is
 
 
 def programs(split: Callable, whole: Callable, args: tuple):

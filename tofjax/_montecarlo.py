@@ -226,12 +226,12 @@ def simulate(
     if fixed_pattern and sample is not None:
         raise ValueError("give fixed_pattern or pattern, not both: fixed_pattern draws the taps' dark slopes from the "
                          "key, pattern is the pixel's whole sample")
-    padded = _executor.padded(sweep, (params, sweep, key, smooth, sample, processing),
-                              iterations * params.pixel.n_phases * draw_factor(processing, image=False))
+    phases = params.pixel.n_phases * draw_factor(processing, image=False)  # drawn_phases of the chain
+    padded = _executor.padded(sweep, (params, sweep, key, smooth, sample, processing), iterations * phases)
     chain = kept_chain(params, smooth, padded.samples, sample, processing)
     return unpad(execute(_setup, _consts, _finish,
                          (params, padded, key, smooth, fixed_pattern, sample, raw, iterations, chain),
-                         points=padded.samples, frames=iterations, keep=keep_frames, phases=drawn_phases(chain),
+                         points=padded.samples, frames=iterations, keep=keep_frames, phases=phases,
                          progress=progress), sweep, padded)
 
 
