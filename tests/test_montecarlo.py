@@ -38,8 +38,8 @@ def test_monte_carlo_depth_noise_agrees_with_the_analytic_path():
 
 def test_progress_runs_the_same_chunks_from_the_host_in_cacheable_programs():
     """With ``progress``, the chunks run from the host: the same numbers as without, to rounding (the
-    first test's run: its 24 points run padded as 32, in 5 chunks of 4000 frames), a tick per chunk, and programs without host callbacks, which JAX's
-    persistent compilation cache keeps (with a callback in the program every process compiled the
+    first test's run: its 24 points run padded as 32, in 5 chunks of 4000 frames), a tick per chunk,
+    and programs without host callbacks, which JAX's persistent compilation cache keeps (with a callback in the program every process compiled the
     Monte Carlo anew: ``tofjax simulate`` on the defaults, 5 of its 7.4 s every run)."""
     import logging
 

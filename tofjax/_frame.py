@@ -461,7 +461,8 @@ class PreparedFrame(eqx.Module):
                progress: bool = False) -> FrameResult:
         """``frames`` Monte Carlo frames (``tj.simulate(camera, scene, ...)`` is ``camera.expose(scene).render(...)``)."""
         check_counts(frames, keep_frames, math.prod(self.shape), self.chain.n_phases, names=FRAME_COUNTS, raw=raw)
-        points, phases, elements = math.prod(self.shape), drawn_phases(self.chain, image=True), frame_chunk_elements()
+        points, elements = math.prod(self.shape), frame_chunk_elements()
+        phases = drawn_phases(self.chain.n_phases, self.chain.processing, image=True)
         whole = whole_frames(self.chain.processing)  # a stage reads neighbours or per-pixel values: whole frames
         return self._wrap(execute(_render_setup, _render_consts, _render_finish, (self, key, raw, frames),
                                   points=points, frames=frames, keep=keep_frames, phases=phases,
@@ -590,7 +591,8 @@ def _sample_prepared(chain, source, key, frames, shape, raw=False, stream=0) -> 
     # PointConstants, or their PointCharges, from which one chunk makes the constants as it draws
     # and several make them once.
     n, words = math.prod(shape), key_words(key)
-    chunk = equal_parts(frames, max(1, frame_chunk_elements() // (n * drawn_phases(chain, image=True))))
+    phases = drawn_phases(chain.n_phases, chain.processing, image=True)
+    chunk = equal_parts(frames, max(1, frame_chunk_elements() // (n * phases)))
     n_chunks = -(-frames // chunk)
     to_m = chain.unambiguity_range_m / (2.0 * jnp.pi)
 

@@ -164,7 +164,8 @@ def monte_carlo(chain: Chain, sweep: Sweep, key: PRNGKeyArray, iterations: int, 
     """:func:`simulate` on a built chain (``chunking``: phase images per chunk, points per block)."""
     prepared = prepare(chain, sweep, dark_slopes_v_per_s)
     sums, kept = run_blocks(frames_step(chain, key_words(key), raw=raw), prepared.consts, sweep.samples, iterations,
-                            keep_frames, drawn_phases(chain), *chunking, progress=progress)
+                            keep_frames, drawn_phases(chain.n_phases, chain.processing), *chunking,
+                            progress=progress)
     return assemble(chain, sweep, prepared, sums, kept, iterations)
 
 
@@ -226,7 +227,7 @@ def simulate(
     if fixed_pattern and sample is not None:
         raise ValueError("give fixed_pattern or pattern, not both: fixed_pattern draws the taps' dark slopes from the "
                          "key, pattern is the pixel's whole sample")
-    phases = params.pixel.n_phases * draw_factor(processing, image=False)  # drawn_phases of the chain
+    phases = drawn_phases(params.pixel.n_phases, processing)
     padded = _executor.padded(sweep, (params, sweep, key, smooth, sample, processing), iterations * phases)
     chain = kept_chain(params, smooth, padded.samples, sample, processing)
     return unpad(execute(_setup, _consts, _finish,
@@ -235,11 +236,11 @@ def simulate(
                          progress=progress), sweep, padded)
 
 
-def drawn_phases(chain: Chain, image: bool = False) -> int:
-    """Raw phase images drawn per delivered frame of a point (the executor's chunking): the sensor's
-    phase images, times the processing's raw frames and a sweep's patch
-    (:func:`tofjax._processing.draw_factor`)."""
-    return chain.n_phases * draw_factor(chain.processing, image)
+def drawn_phases(n_phases: int, stages, image: bool = False) -> int:
+    """Raw phase images drawn per delivered frame of a point (the executor's chunking, a sweep's
+    padding): the sensor's ``n_phases``, times the processing ``stages``' raw frames and a sweep's
+    patch (:func:`tofjax._processing.draw_factor`)."""
+    return n_phases * draw_factor(stages, image)
 
 
 @_jit.jit

@@ -195,7 +195,7 @@ class MultiPreparedFrame(eqx.Module):
         n_freq = len(self.freq.ranges)
         # Frames are kept per frequency and once more fused.
         check_counts(frames, keep_frames, n * (n_freq + 1), self._first.chain.n_phases, names=FRAME_COUNTS, raw=raw)
-        phases = n_freq * drawn_phases(self._first.chain, image=True)
+        phases = n_freq * drawn_phases(self._first.chain.n_phases, self._first.chain.processing, image=True)
         elements = frame_chunk_elements()
         whole = whole_frames(self._first.chain.processing)
         mf = execute(_render_setup, _render_consts, _render_finish, (self, key, raw, frames), points=n, frames=frames,

@@ -55,10 +55,9 @@ from ._analytic import analytic, moments
 from ._chain import Chain, build_chain
 from ._executor import execute
 from ._frames import draw_delivered, reduce_frames, sample_mean_std, wrap
-from ._montecarlo import assemble, check_counts, prepare
+from ._montecarlo import assemble, check_counts, drawn_phases, prepare
 from ._constants import SPEED_OF_LIGHT_M_PER_S
 from ._params import Params
-from ._processing import draw_factor
 from ._random import key_words
 from ._result import Result
 from ._schema import FUSIONS
@@ -259,7 +258,7 @@ def simulate_multifrequency(params: Params, sweep: Sweep, key: PRNGKeyArray, ite
     c = float(params.constants.speed_of_light_m_per_s)
     ranges = tuple(float(x) for x in c / (2.0 * freqs))
     freqs, extended = jnp.asarray(freqs), float(extended_range_m(freqs, c))
-    phases = params.pixel.n_phases * draw_factor(processing, image=False)
+    phases = drawn_phases(params.pixel.n_phases, processing)
     padded = _executor.padded(sweep, (params, sweep, key, processing), iterations * phases * len(ranges))
     return _unpadded(execute(_run_setup, _run_consts, _run_finish,
                              (params, padded, key, freqs, extended, ranges, fusion, iterations, raw, processing),
