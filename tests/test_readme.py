@@ -41,6 +41,16 @@ def test_ci_runs_exactly_the_readme_test_command():
     assert "--durations=10" in (ROOT / "pyproject.toml").read_text()
 
 
+def test_the_suite_rewrites_the_asserts_of_its_own_modules_only():
+    """tests/conftest.py: the packages of plugin-shipping distributions (hypothesis here) load as
+    they are, the suite's modules with pytest's assertion messages."""
+    import hypothesis
+    from _pytest.assertion.rewrite import AssertionRewritingHook
+
+    assert not isinstance(hypothesis.__spec__.loader, AssertionRewritingHook)
+    assert isinstance(sys.modules[__name__].__spec__.loader, AssertionRewritingHook)
+
+
 def test_readme_cites_the_thesis_explains_its_terms_and_names_the_extras():
     """A first reader meets "Table 4.9", "§5.5.1", SBI, LSB, PMD, kTC and LTS: the README gives the
     thesis' full reference and links a glossary that explains each; recording's USB packages come with
