@@ -28,7 +28,7 @@ def _text(meta=META, header=HEADER, rows=(GOOD_ROW,), first="# format: tofjax-sw
 
 
 def test_round_trip_of_a_simulation(tmp_path):
-    result = tj.simulate(tj.Params(), tj.Sweep.linspace("distance", 0.2, 2.0, 7), jax.random.key(0), 40)
+    result = tj.simulate(tj.Params(), tj.Sweep.linspace("distance", 0.2, 2.0, 7), jax.random.key(0), 64)
     cols = sf.columns_from_result(result)
     meta = {**META, "source": "simulation"}
     sf.write_sweep(tmp_path / "s.csv", meta, cols)
