@@ -100,10 +100,11 @@ def test_every_frequency_keeps_its_raw_phase_images():
     freqs = (80.32e6, 60.24e6)
     camera = tj.Camera(tj.Params(), frequencies_hz=freqs)
     sweep = tj.Sweep("distance", [0.6, 1.7, 3.1])
-    raw = tj.simulate(camera, sweep, jax.random.key(3), 40, keep_frames=3, raw=True)
-    plain = tj.simulate(camera, sweep, jax.random.key(3), 40, keep_frames=3)
+    # The frame counts of test_dual_frequency_extends_the_range: ``plain`` runs its compiled program.
+    raw = tj.simulate(camera, sweep, jax.random.key(3), 1500, keep_frames=20, raw=True)
+    plain = tj.simulate(camera, sweep, jax.random.key(3), 1500, keep_frames=20)
     per = raw.per_frequency
-    assert per.frames_tap_a_e.shape == per.frames_tap_b_e.shape == per.codes.shape == (2, 3, 3, 4)
+    assert per.frames_tap_a_e.shape == per.frames_tap_b_e.shape == per.codes.shape == (2, 3, 20, 4)
     np.testing.assert_array_equal(per.codes, plain.per_frequency.codes)
     np.testing.assert_allclose(raw.depth_m, plain.depth_m, rtol=1e-15)  # another program: rounding
     for i, f in enumerate(freqs):
