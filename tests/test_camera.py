@@ -48,6 +48,7 @@ def test_several_frequencies_are_one_camera():
                         SWEEP).depth_std_m for f in camera.frequencies_hz]
     np.testing.assert_allclose(fused.depth_std_m, 1 / np.sqrt(sum(1 / np.asarray(s) ** 2 for s in alone)), rtol=1e-12)
     assert np.all(np.asarray(fused.depth_std_m) < np.minimum(*alone))
+    # 2000 frames: the program of test_compare's fused noise (inverse-variance), built once for both.
     assert isinstance(tj.simulate(camera, SWEEP, jax.random.key(0), 2000), tj.MultiFrequencyResult)
     # A frame of the two frequencies is a fused frame (tofjax/_multiframe.py; tests/test_multifrequency.py).
     assert float(tj.predict(camera, scenes.wall(1.3)).result.unambiguity_range_m) == pytest.approx(7.465, abs=1e-3)

@@ -192,7 +192,7 @@ def test_royale_without_the_sdk_says_how_to_install_it():
 
 
 def test_record_command_through_the_fake_stage_and_a_campaign_file(tmp_path, capsys):
-    campaign = tmp_path / "lts.toml"
+    campaign = tmp_path / "lts.toml"  # 40 frames of 2 x 2 pixels: the other campaigns' program
     campaign.write_text('[campaign]\nsweep = "distance"\nstart = 0.8\nstop = 0.9\nsamples = 3\nframes = 40\n'
                         'roi = "2,2"\nstage = "fake"\ncounts_per_mm = 20000.0\n')  # a DDS stage: short, fast moves
     out = tmp_path / "rec.csv"

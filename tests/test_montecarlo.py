@@ -39,8 +39,9 @@ def test_monte_carlo_depth_noise_agrees_with_the_analytic_path():
 def test_progress_runs_the_same_chunks_from_the_host_in_cacheable_programs():
     """With ``progress``, the chunks run from the host: the same numbers as without, to rounding (the
     first test's run: its 24 points run padded as 32, in 5 chunks of 4000 frames), a tick per chunk,
-    and programs without host callbacks, which JAX's persistent compilation cache keeps (with a callback in the program every process compiled the
-    Monte Carlo anew: ``tofjax simulate`` on the defaults, 5 of its 7.4 s every run)."""
+    and programs without host callbacks, which JAX's persistent compilation cache keeps (with a
+    callback in the program every process compiled the Monte Carlo anew: ``tofjax simulate`` on the
+    defaults, 5 of its 7.4 s every run)."""
     import logging
 
     from tofjax import progress
@@ -144,6 +145,7 @@ def test_noise_switch_and_determinism():
     quiet = tj.simulate(tj.Params(pixel=tj.Pixel(noise=False)), sweep, jax.random.key(0), 20)
     assert np.all(np.asarray(quiet.depth_std_m) == 0.0)
     assert np.all(np.asarray(tj.predict(tj.Params(pixel=tj.Pixel(noise=False)), sweep).depth_std_m) == 0.0)
+    # 16 frames, all kept: the program of the raw-taps and recording tests' plain runs.
     a = tj.simulate(tj.Params(), sweep, jax.random.key(1), 16, keep_frames=16)
     b = tj.simulate(tj.Params(), sweep, jax.random.key(1), 16, keep_frames=16)
     c = tj.simulate(tj.Params(), sweep, jax.random.key(2), 16, keep_frames=16)

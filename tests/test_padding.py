@@ -1,6 +1,7 @@
 """tj.predict and tj.simulate called directly: sweeps of similar length share one compiled program
 (tofjax._sweep.padded_samples; the Monte Carlo while the padding is cheap): the padded points change
-nothing of the sweep's own, and a second length in the same bucket compiles nothing; a camera's chain is built once (tofjax._chain.kept_chain)."""
+nothing of the sweep's own, and a second length in the same bucket compiles nothing; a camera's chain
+is built once (tofjax._chain.kept_chain)."""
 
 import collections
 

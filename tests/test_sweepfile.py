@@ -28,6 +28,7 @@ def _text(meta=META, header=HEADER, rows=(GOOD_ROW,), first="# format: tofjax-sw
 
 
 def test_round_trip_of_a_simulation(tmp_path):
+    # 64 frames: the program of test_camera's sweeps of the default camera.
     result = tj.simulate(tj.Params(), tj.Sweep.linspace("distance", 0.2, 2.0, 7), jax.random.key(0), 64)
     cols = sf.columns_from_result(result)
     meta = {**META, "source": "simulation"}
