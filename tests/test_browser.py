@@ -115,6 +115,8 @@ def test_the_explorer_in_a_browser(voila):
         browser = p.chromium.launch(executable_path=CHROMIUM, args=FLAGS)
         page = browser.new_page(viewport={"width": 1280, "height": 800})
         page.set_default_timeout(60_000)
+        # Its expectations too (5 s by default): a loaded machine took longer to show a plot's canvas.
+        expect.set_options(timeout=60_000)
         try:
             page.goto(url, timeout=START_S * 1000)
             calculate = page.get_by_role("button", name="Calculate")

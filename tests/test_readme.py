@@ -51,6 +51,23 @@ def test_the_suite_rewrites_the_asserts_of_its_own_modules_only():
     assert isinstance(sys.modules[__name__].__spec__.loader, AssertionRewritingHook)
 
 
+def test_the_workers_and_their_subprocesses_allocate_with_jemalloc_where_it_is_installed():
+    """tests/conftest.py: where jemalloc is installed (CI installs it: .ci/run), the processes the run
+    starts preload it: this one, a pytest-xdist worker, has it mapped, and a process it starts has it
+    too. Run without workers, only the processes it starts have it."""
+    import ctypes.util
+
+    library = ctypes.util.find_library("jemalloc")
+    if library is None:
+        assert "libjemalloc2" in (ROOT / ".ci" / "run").read_text()  # CI has it; a fresh machine may not
+        pytest.skip("jemalloc is not installed here (Debian: libjemalloc2)")
+    maps = subprocess.run([sys.executable, "-c", "print(open('/proc/self/maps').read())"], capture_output=True,
+                          text=True, check=True).stdout
+    assert "libjemalloc" in maps
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        assert "libjemalloc" in Path("/proc/self/maps").read_text()
+
+
 def test_readme_cites_the_thesis_explains_its_terms_and_names_the_extras():
     """A first reader meets "Table 4.9", "§5.5.1", SBI, LSB, PMD, kTC and LTS: the README gives the
     thesis' full reference and links a glossary that explains each; recording's USB packages come with
