@@ -4,6 +4,7 @@ the run's processes. NaN checks stay off so that the tests see what a user sees.
 
 import ctypes.util
 import os
+import sys
 import tempfile
 
 # One persistent JAX compilation cache for a test run's processes: the pytest-xdist workers and the
@@ -28,7 +29,7 @@ os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "") + " --xla_cpu_use_fus
 # unlink_chunk ...). test_multifrequency.py and test_analytic.py, cold, one process: 45.3-45.6 s with
 # glibc's malloc, 39.3-40.9 s with jemalloc (tcmalloc and mimalloc alike; glibc's tunables 43.9-44.3 s).
 # The same numbers: an allocator hands out memory, it computes nothing. Without the library, glibc's.
-_JEMALLOC = ctypes.util.find_library("jemalloc")
+_JEMALLOC = ctypes.util.find_library("jemalloc") if sys.platform.startswith("linux") else None  # ld.so's LD_PRELOAD
 if _JEMALLOC and _JEMALLOC not in os.environ.get("LD_PRELOAD", ""):
     os.environ["LD_PRELOAD"] = ":".join(filter(None, (os.environ.get("LD_PRELOAD"), _JEMALLOC)))
 

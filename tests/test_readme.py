@@ -57,6 +57,8 @@ def test_the_workers_and_their_subprocesses_allocate_with_jemalloc_where_it_is_i
     too. Run without workers, only the processes it starts have it."""
     import ctypes.util
 
+    if not sys.platform.startswith("linux"):
+        pytest.skip("LD_PRELOAD is Linux's (ld.so)")
     library = ctypes.util.find_library("jemalloc")
     if library is None:
         assert "libjemalloc2" in (ROOT / ".ci" / "run").read_text()  # CI has it; a fresh machine may not
