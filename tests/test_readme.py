@@ -59,8 +59,7 @@ def test_the_workers_and_their_subprocesses_allocate_with_jemalloc_where_it_is_i
 
     if not sys.platform.startswith("linux"):
         pytest.skip("LD_PRELOAD is Linux's (ld.so)")
-    library = ctypes.util.find_library("jemalloc")
-    if library is None:
+    if ctypes.util.find_library("jemalloc") is None:
         assert "libjemalloc2" in (ROOT / ".ci" / "run").read_text()  # CI has it; a fresh machine may not
         pytest.skip("jemalloc is not installed here (Debian: libjemalloc2)")
     maps = subprocess.run([sys.executable, "-c", "print(open('/proc/self/maps').read())"], capture_output=True,
