@@ -226,7 +226,12 @@ class PreparedCamera(eqx.Module):
     @_jit.method
     def predict(self, returns: Returns) -> FrameResult:
         """A scene's analytic frame (``tj.predict(camera, returns)``)."""
-        returns = self._check(returns)
+        return self._predict(self._check(returns))
+
+    def _predict(self, returns: Returns) -> FrameResult:
+        """:meth:`predict` of returns already checked (:meth:`_check`): inside a program of tofjax's own,
+        where a check of traced values would be a host callback, and a program holding one is never
+        written to the persistent compilation cache (compiled again by every process)."""
         result = _predict_prepared(self.chain, returns.radial_m, self.expose(returns))
         quality = _quality(self.chain, self.settings, returns, self.direction, *_phase_noise(result))
         return FrameResult(result, returns.radial_m, self.direction, self.pattern, quality)
@@ -235,7 +240,10 @@ class PreparedCamera(eqx.Module):
     def prepare(self, returns: Returns) -> PreparedFrame:
         """A scene exposed once (:meth:`tofjax.Camera.expose`), with its flags' expected noise and amplitude
         (the analytic frame's) and the scene's own flags."""
-        returns = self._check(returns)
+        return self._prepare(self._check(returns))
+
+    def _prepare(self, returns: Returns) -> PreparedFrame:
+        """:meth:`prepare` of returns already checked (as :meth:`_predict`)."""
         exposure = self.expose(returns)
         sweep, charges, consts = _charges_and_constants(self.chain, returns.radial_m, exposure)
         quality = _quality(self.chain, self.settings, returns, self.direction, *_expected(self.chain, sweep, charges))

@@ -293,7 +293,7 @@ _scene_flags = _jit.jit(scene_flags)
 # One program each (a vmap over the frequencies of the single frequency's programs, traced inline).
 @_jit.jit
 def _camera_predict(camera: MultiPreparedCamera, returns: Returns) -> FrameResult:
-    per = over_frequencies(lambda c, r: c.predict(r), camera.cameras, returns, len(camera.freq.ranges))
+    per = over_frequencies(lambda c, r: c._predict(r), camera.cameras, returns, len(camera.freq.ranges))
     first = camera._first
     return FrameResult(_fused_result(per.result, camera.freq, fuse_expected(per.result, camera.freq)), returns.radial_m,
                        first.direction, first.pattern, _quality(per.quality, camera._flags(returns)))
@@ -301,7 +301,7 @@ def _camera_predict(camera: MultiPreparedCamera, returns: Returns) -> FrameResul
 
 @_jit.jit
 def _camera_prepare(camera: MultiPreparedCamera, returns: Returns) -> MultiPreparedFrame:
-    frames = over_frequencies(lambda c, r: c.prepare(r), camera.cameras, returns, len(camera.freq.ranges))
+    frames = over_frequencies(lambda c, r: c._prepare(r), camera.cameras, returns, len(camera.freq.ranges))
     return MultiPreparedFrame(frames, camera.freq, _quality(frames.quality, camera._flags(returns)))
 
 
@@ -319,29 +319,32 @@ def _frame_sample(frame: MultiPreparedFrame, key, frames: int) -> NoisyFrames:
     return _fuse_frames(per, frame.freq, _expected_depth_std(frame))
 
 
+@_jit.jit
 def _render_setup(frame: MultiPreparedFrame, key, raw, frames):
     """The run's chunk step: every frequency's chain, its own random stream, fused frame by frame on
-    the pixels (whole frames where a processing stage reads neighbours)."""
+    the pixels (whole frames where a processing stage reads neighbours); carried: the noise-free fused
+    distance, the true distance and the fusion's weights (of each frequency's expected noise). One
+    program (the run's setup from the host, :func:`tofjax._executor.execute`), where its operations
+    each compiled one."""
     words = key_words(jr.split(key)[1])
     image = frame.shape if whole_frames(frame._first.chain.processing) else None
     step = _Step(frame.frames.chain, words, jnp.arange(len(frame.freq.ranges), dtype=jnp.uint32),
                  frame.freq.ranges, frame.freq.extended, raw, image)
-    return None, step
+    ranges = np.asarray(frame.freq.ranges)
+    weights = fusion_weights(_expected_depth_std(frame)**2, ranges, frame.freq.fusion).reshape(len(ranges), -1)
+    reference = unwrap_frequencies(jnp.mod(frame.frames.prepared.consts.ref_phase, 2.0 * jnp.pi), ranges,
+                                   frame.freq.extended, weights)
+    truth = jnp.mod(frame._first.sweep.values.reshape(-1), frame.freq.extended)
+    return (reference, truth, weights), step
 
 
 def _render_consts(frame: MultiPreparedFrame, key, raw, frames, carry):
-    """The blocks' inputs: every frequency's constants, the noise-free fused distance, the true
-    distance, the fusion's weights (of each frequency's expected noise)."""
-    consts = frame.frames.prepared.consts
-    ranges = np.asarray(frame.freq.ranges)
-    weights = fusion_weights(_expected_depth_std(frame)**2, ranges, frame.freq.fusion).reshape(len(ranges), -1)
-    reference = unwrap_frequencies(jnp.mod(consts.ref_phase, 2.0 * jnp.pi), ranges, frame.freq.extended, weights)
-    truth = jnp.mod(frame._first.sweep.values.reshape(-1), frame.freq.extended)
-    return consts, reference, truth, weights
+    """The blocks' inputs: every frequency's constants (as prepared: not copied) and the setup's."""
+    return (frame.frames.prepared.consts, *carry)
 
 
+@_jit.jit
 def _render_finish(frame: MultiPreparedFrame, key, raw, frames, carry, sums, kept):
     first = frame._first
-    consts = _render_consts(frame, key, raw, frames, carry)
     return _finish(first.chain.params, first.sweep, frames, jnp.asarray(frame.freq.frequencies_hz), frame.freq.extended,
-                   frame.freq.fusion, frame.frames.chain, frame.frames.prepared, consts[1], sums, kept)
+                   frame.freq.fusion, frame.frames.chain, frame.frames.prepared, carry[0], sums, kept)
