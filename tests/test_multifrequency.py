@@ -140,6 +140,43 @@ def test_a_frame_of_several_frequencies_is_fused_pixel_by_pixel():
     near = np.abs(np.asarray(a.radial_m) - np.asarray(analytic.radial_true_m)[None])[np.asarray(a.valid)] < 0.5
     wrong = float(np.mean(np.asarray(analytic.result.wrong_unwrap_fraction)))
     assert 1.0 - near.mean() < wrong + 0.03  # the frames a wrong unwrap takes, at the closed form's rate
+    _the_host_driven_render_is_few_cacheable_programs(camera, scene, mc)
+
+
+def _the_host_driven_render_is_few_cacheable_programs(camera, scene, mc):
+    """With ``progress`` (chunk by chunk from the host, as the command line runs it) the same frames
+    as in one program, to rounding; the run's setup and finish are programs (their operations, run
+    one by one, compiled ~190 programs in every process: the README's corner render 2.4 s of its 19),
+    and the prepared camera's program holds no host callback (a check of returns already checked
+    made it one, which JAX's persistent cache never keeps: 1.4 s of every render's start)."""
+    import jax._src.dispatch as dispatch
+
+    from tofjax import progress
+    from tofjax._multiframe import _camera_prepare
+
+    class Ticks:
+        n, total = 0, 0.0
+
+        def update(self, k=1):
+            self.n += k
+
+        def close(self):
+            pass
+
+    prepared, returns = camera.prepare(), camera.returns(scene)
+    assert "callback" not in str(jax.make_jaxpr(lambda r: _camera_prepare(prepared, r))(returns))
+    frame = prepared.prepare(returns)
+    eager, real = [], dispatch.xla_primitive_callable  # every operation run on its own (jax < 0.11)
+    dispatch.xla_primitive_callable = lambda prim, **kw: eager.append(prim.name) or real(prim, **kw)
+    try:
+        with progress.reporting(Ticks()) as ticks:
+            loud = frame.render(jax.random.key(0), 200, keep_frames=2, progress=True)
+    finally:
+        dispatch.xla_primitive_callable = real
+    assert ticks.n == ticks.total >= 1
+    assert len(eager) <= 10, eager
+    for a, b in zip(jax.tree_util.tree_leaves(loud), jax.tree_util.tree_leaves(mc), strict=True):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-12, atol=1e-15)
 
 
 def test_phase_average_weights_each_distance_by_its_frequency():
