@@ -13,6 +13,19 @@ def tree_allclose(x, y, *, rtol=1e-7, atol=0.0) -> bool:
     return tree_x == tree_y and all(np.allclose(a, b, rtol=rtol, atol=atol) for a, b in zip(leaves_x, leaves_y, strict=True))
 
 
+
+class Ticks:
+    """A progress bar that counts (``tofjax.progress.reporting(Ticks())``): ``n`` ticks of ``total``."""
+
+    n, total = 0, 0.0
+
+    def update(self, k=1):
+        self.n += k
+
+    def close(self):
+        pass
+
+
 def fd_check(f, x0, rtol=1e-4):
     """jax.grad(f) against a central finite difference (step 1e-6 relative) at the float x0."""
     g = float(jax.grad(f)(x0))

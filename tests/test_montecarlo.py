@@ -44,16 +44,9 @@ def test_progress_runs_the_same_chunks_from_the_host_in_cacheable_programs():
     defaults, 5 of its 7.4 s every run)."""
     import logging
 
+    from helpers import Ticks
+
     from tofjax import progress
-
-    class Ticks:
-        n, total = 0, 0.0
-
-        def update(self, k=1):
-            self.n += k
-
-        def close(self):
-            pass
 
     class Log(logging.Handler):
         def __init__(self, level):

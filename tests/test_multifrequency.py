@@ -151,17 +151,10 @@ def _the_host_driven_render_is_few_cacheable_programs(camera, scene, mc):
     made it one, which JAX's persistent cache never keeps: 1.4 s of every render's start)."""
     import jax._src.dispatch as dispatch
 
+    from helpers import Ticks
+
     from tofjax import progress
     from tofjax._multiframe import _camera_prepare
-
-    class Ticks:
-        n, total = 0, 0.0
-
-        def update(self, k=1):
-            self.n += k
-
-        def close(self):
-            pass
 
     prepared, returns = camera.prepare(), camera.returns(scene)
     assert "callback" not in str(jax.make_jaxpr(lambda r: _camera_prepare(prepared, r))(returns))
