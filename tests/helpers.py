@@ -13,7 +13,6 @@ def tree_allclose(x, y, *, rtol=1e-7, atol=0.0) -> bool:
     return tree_x == tree_y and all(np.allclose(a, b, rtol=rtol, atol=atol) for a, b in zip(leaves_x, leaves_y, strict=True))
 
 
-
 class Ticks:
     """A progress bar that counts (``tofjax.progress.reporting(Ticks())``): ``n`` ticks of ``total``."""
 
